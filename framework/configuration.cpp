@@ -1,0 +1,92 @@
+#include "framework/configuration.hpp"
+
+namespace sweep {
+
+namespace {
+
+Quaternion quaternionAt(const VectorX& q, int index) {
+  return Quaternion(q[index + 6], q[index + 3], q[index + 4], q[index + 5]);
+}
+
+void storeQuaternion(const Quaternion& quat, VectorX& q, int index) {
+  q[index + 3] = quat.x();
+  q[index + 4] = quat.y();
+  q[index + 5] = quat.z();
+  q[index + 6] = quat.w();
+}
+
+Quaternion exponential(const Vector3& rotation_vector) {
+  const double angle = rotation_vector.norm();
+  if (angle < 1e-300) return Quaternion::Identity();
+  return Quaternion(Eigen::AngleAxisd(angle, rotation_vector / angle));
+}
+
+}  // namespace
+
+void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out) {
+  if (&q_out != &q) q_out = q;
+  for (const Body& b : model.bodies) {
+    const int iq = b.q_index, iv = b.v_index;
+    if (b.joint.type != JointType::Floating) {
+      q_out.segment(iq, b.joint.nq()) += dv.segment(iv, b.joint.nv());
+      continue;
+    }
+    q_out.segment<3>(iq) += dv.segment<3>(iv);
+    const Quaternion rotated =
+        (quaternionAt(q_out, iq) * exponential(dv.segment<3>(iv + 3))).normalized();
+    storeQuaternion(rotated, q_out, iq);
+  }
+}
+
+VectorX integrate(const Model& model, const VectorX& q, const VectorX& dv) {
+  VectorX out;
+  integrate(model, q, dv, out);
+  return out;
+}
+
+VectorX difference(const Model& model, const VectorX& q0, const VectorX& q1) {
+  VectorX dv(model.nv);
+  for (const Body& b : model.bodies) {
+    const int iq = b.q_index, iv = b.v_index;
+    if (b.joint.type != JointType::Floating) {
+      dv.segment(iv, b.joint.nv()) = q1.segment(iq, b.joint.nq()) - q0.segment(iq, b.joint.nq());
+      continue;
+    }
+    dv.segment<3>(iv) = q1.segment<3>(iq) - q0.segment<3>(iq);
+    const Eigen::AngleAxisd relative(
+        (quaternionAt(q0, iq).normalized().conjugate() * quaternionAt(q1, iq).normalized())
+            .normalized());
+    // the shortest rotation: angle in [0, pi]
+    double angle = relative.angle();
+    Vector3 axis = relative.axis();
+    if (angle > M_PI) {
+      angle = 2.0 * M_PI - angle;
+      axis = -axis;
+    }
+    dv.segment<3>(iv + 3) = angle * axis;
+  }
+  return dv;
+}
+
+void configurationRate(const Model& model, const VectorX& q, const VectorX& v, VectorX& qdot) {
+  qdot.resize(model.nq);
+  for (const Body& b : model.bodies) {
+    const int iq = b.q_index, iv = b.v_index;
+    if (b.joint.type != JointType::Floating) {
+      qdot.segment(iq, b.joint.nq()) = v.segment(iv, b.joint.nv());
+      continue;
+    }
+    qdot.segment<3>(iq) = v.segment<3>(iv);
+    const Vector3 w = v.segment<3>(iv + 3);
+    const Quaternion rate = quaternionAt(q, iq) * Quaternion(0.0, w.x(), w.y(), w.z());
+    qdot.segment<4>(iq + 3) = 0.5 * rate.coeffs();  // coeffs() is (x, y, z, w)
+  }
+}
+
+void normalizeConfiguration(const Model& model, VectorX& q) {
+  for (const Body& b : model.bodies)
+    if (b.joint.type == JointType::Floating)
+      storeQuaternion(quaternionAt(q, b.q_index).normalized(), q, b.q_index);
+}
+
+}  // namespace sweep

@@ -1,0 +1,23 @@
+#pragma once
+// Moving on the configuration manifold. Planar angles and joint angles are plain coordinates;
+// floating bodies carry a unit quaternion (nq = 7, nv = 6), so these functions are the only
+// correct way to add a velocity increment to q or to subtract two configurations.
+#include "framework/model.hpp"
+
+namespace sweep {
+
+// q_out = q (+) dv: every coordinate moves by dv as if v = dv were held for unit time
+// (quaternions by the exponential map of the body-axes rotation vector).
+void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out);
+VectorX integrate(const Model& model, const VectorX& q, const VectorX& dv);
+
+// dv such that q0 (+) dv = q1.
+VectorX difference(const Model& model, const VectorX& q0, const VectorX& q1);
+
+// qdot as a function of (q, v): the quaternion rate is 1/2 quat * (0, w_body).
+void configurationRate(const Model& model, const VectorX& q, const VectorX& v, VectorX& qdot);
+
+// Renormalizes every quaternion of q in place.
+void normalizeConfiguration(const Model& model, VectorX& q);
+
+}  // namespace sweep

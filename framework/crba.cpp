@@ -1,0 +1,92 @@
+#include "framework/crba.hpp"
+
+#include "framework/kinematics.hpp"
+
+namespace sweep {
+
+void computeMassBlocks(const Model& model, Data& data, bool include_constant) {
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    if (comp.constant_mass && !include_constant) continue;
+    MatrixX& block = data.mass_blocks[c];
+
+    // backward pass: composite inertias, each in its own body frame
+    for (int i = comp.first_body; i < comp.end_body; ++i)
+      data.composite_inertia[i] = model.bodies[i].inertia;
+    for (int i = comp.end_body - 1; i > comp.first_body; --i) {
+      const int parent = model.bodies[i].parent;
+      data.composite_inertia[parent] += data.composite_inertia[i].expressedIn(data.parent_pose[i]);
+    }
+
+    // M_ij = S_j^T X_{j<-i}^* (I^c_i S_i) for every ancestor j of i
+    for (int i = comp.first_body; i < comp.end_body; ++i) {
+      const MotionSubspace& Si = data.motion_subspace[i];
+      const int ni = static_cast<int>(Si.cols());
+      if (ni == 0) continue;
+      const int vi = model.bodies[i].v_index - comp.v_index;
+      Matrix6 F;
+      for (int k = 0; k < ni; ++k) F.col(k) = data.composite_inertia[i].apply(Si.col(k));
+      for (int a = 0; a < ni; ++a)
+        for (int k = 0; k < ni; ++k) block(vi + a, vi + k) = Si.col(a).dot(F.col(k));
+      for (int j = i; model.bodies[j].parent >= 0;) {
+        for (int k = 0; k < ni; ++k) F.col(k) = data.parent_pose[j].forceToParent(F.col(k));
+        j = model.bodies[j].parent;
+        const MotionSubspace& Sj = data.motion_subspace[j];
+        const int nj = static_cast<int>(Sj.cols());
+        if (nj == 0) continue;
+        const int vj = model.bodies[j].v_index - comp.v_index;
+        for (int a = 0; a < nj; ++a) {
+          for (int k = 0; k < ni; ++k) {
+            const double m = Sj.col(a).dot(F.col(k));
+            block(vj + a, vi + k) = m;
+            block(vi + k, vj + a) = m;
+          }
+        }
+      }
+    }
+  }
+}
+
+void computeMassBlocks(const Model& model, Data& data, const VectorX& q, bool include_constant) {
+  forwardKinematics(model, data, q);
+  computeMassBlocks(model, data, include_constant);
+}
+
+void crba(const Model& model, Data& data, const VectorX& q) {
+  computeMassBlocks(model, data, q, /*include_constant=*/false);
+}
+
+void factorizeMassMatrix(const Model& model, Data& data) {
+  for (size_t c = 0; c < model.components.size(); ++c)
+    if (!model.components[c].constant_mass) data.mass_factors[c].compute(data.mass_blocks[c]);
+}
+
+void applyMassInverse(const Model& model, const Data& data, const VectorX& rhs, VectorX& out) {
+  if (&out != &rhs) out = rhs;
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    if (comp.nv == 0) continue;
+    auto segment = out.segment(comp.v_index, comp.nv);
+    data.mass_factors[c].solveInPlace(segment);
+  }
+}
+
+void applyMass(const Model& model, const Data& data, const VectorX& rhs, VectorX& out) {
+  out.resize(model.nv);
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    out.segment(comp.v_index, comp.nv).noalias() =
+        data.mass_blocks[c] * rhs.segment(comp.v_index, comp.nv);
+  }
+}
+
+MatrixX denseMassMatrix(const Model& model, const Data& data) {
+  MatrixX m = MatrixX::Zero(model.nv, model.nv);
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    m.block(comp.v_index, comp.v_index, comp.nv, comp.nv) = data.mass_blocks[c];
+  }
+  return m;
+}
+
+}  // namespace sweep

@@ -1,0 +1,27 @@
+#include "framework/data.hpp"
+
+#include "framework/crba.hpp"
+
+namespace sweep {
+
+Data::Data(const Model& model)
+    : parent_pose(model.bodies.size()),
+      world_pose(model.bodies.size()),
+      motion_subspace(model.bodies.size()),
+      bias_acceleration(model.bodies.size(), Vector6::Zero()),
+      velocity(model.bodies.size(), Vector6::Zero()),
+      acceleration(model.bodies.size(), Vector6::Zero()),
+      force(model.bodies.size(), Vector6::Zero()),
+      composite_inertia(model.bodies.size()),
+      mass_factors(model.components.size()),
+      tau(VectorX::Zero(model.nv)),
+      ddq(VectorX::Zero(model.nv)) {
+  mass_blocks.reserve(model.components.size());
+  for (const Component& c : model.components) mass_blocks.emplace_back(MatrixX::Zero(c.nv, c.nv));
+  // constant blocks do not depend on q: any configuration will do, so take the neutral one
+  computeMassBlocks(model, *this, model.neutralConfiguration(), /*include_constant=*/true);
+  for (size_t c = 0; c < model.components.size(); ++c)
+    if (model.components[c].constant_mass) mass_factors[c].compute(mass_blocks[c]);
+}
+
+}  // namespace sweep

@@ -1,0 +1,31 @@
+#pragma once
+// The mutable workspace of the algorithms, sized once from a Model: Data data(model).
+#include <Eigen/Cholesky>
+#include <vector>
+
+#include "framework/model.hpp"
+
+namespace sweep {
+
+struct Data {
+  explicit Data(const Model& model);
+
+  // per body (model order)
+  std::vector<Pose> parent_pose;                // body frame in the parent body frame (or world)
+  std::vector<Pose> world_pose;                 // body frame in world
+  std::vector<MotionSubspace> motion_subspace;  // S, body coordinates
+  std::vector<Vector6> bias_acceleration;       // c_J = Sdot v, body coordinates
+  std::vector<Vector6> velocity;                // spatial velocity, body coordinates
+  std::vector<Vector6> acceleration;            // spatial acceleration, body coordinates
+  std::vector<Vector6> force;                   // net force transmitted by the joint
+  std::vector<Inertia> composite_inertia;       // CRBA composite body inertias
+
+  // per component: M block, and its Cholesky factor (constant blocks are factored here, once)
+  std::vector<MatrixX> mass_blocks;
+  std::vector<Eigen::LLT<MatrixX>> mass_factors;
+
+  VectorX tau;  // generalized force out of rnea()
+  VectorX ddq;  // generalized acceleration out of forwardDynamics()
+};
+
+}  // namespace sweep

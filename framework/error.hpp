@@ -1,0 +1,14 @@
+#pragma once
+#include <stdexcept>
+#include <string>
+
+namespace sweep {
+
+// Raised for anything a user supplied that Sweep cannot accept. The message names the source
+// (file or builder), the element or field, and the offending value.
+class InputError : public std::runtime_error {
+ public:
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
+};
+
+}  // namespace sweep

@@ -1,0 +1,34 @@
+#pragma once
+#include "framework/data.hpp"
+
+namespace sweep {
+
+// Jacobian of a point attached to `body` with respect to v (after forwardKinematics):
+// rows 0-2 map v to the body's angular velocity, rows 3-5 to the velocity of the point, both in
+// world axes. Only the columns of the body and its ancestors are written; J must be 6 x nv and
+// its other columns are left untouched (callers zero it once).
+void pointJacobian(const Model& model, const Data& data, int body, const Vector3& point_world,
+                   Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> J);
+
+// Jacobian of the frame `frame_in_body` of `body`: its angular velocity and the velocity of
+// its origin, in world axes.
+void frameJacobian(const Model& model, const Data& data, int body, const Pose& frame_in_body,
+                   Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> J);
+
+// Calls visit(v_index, angular_world, linear_world_at_point) for every dof moving the point.
+template <class Visit>
+void forEachPointJacobianColumn(const Model& model, const Data& data, int body,
+                                const Vector3& point_world, Visit&& visit) {
+  for (int j = body; j >= 0; j = model.bodies[j].parent) {
+    const Pose& pose = data.world_pose[j];
+    const MotionSubspace& S = data.motion_subspace[j];
+    const Vector3 lever = point_world - pose.translation;
+    for (int k = 0; k < S.cols(); ++k) {
+      const Vector3 w = pose.rotation * S.col(k).head<3>();
+      const Vector3 lin = pose.rotation * S.col(k).tail<3>() + w.cross(lever);
+      visit(model.bodies[j].v_index + k, w, lin);
+    }
+  }
+}
+
+}  // namespace sweep

@@ -1,0 +1,218 @@
+#include "framework/model.hpp"
+
+#include <Eigen/Cholesky>
+#include <map>
+#include <sstream>
+
+#include "framework/crba.hpp"
+#include "framework/data.hpp"
+#include "framework/error.hpp"
+
+namespace sweep {
+
+DrivenBody DrivenBody::fixed(const std::string& name, const Pose& pose) {
+  return DrivenBody{name, [pose](double) { return pose; },
+                    [](double) { return Vector6::Zero().eval(); }};
+}
+
+DrivenBody DrivenBody::constantTwist(const std::string& name, const Pose& pose0,
+                                     const Vector3& linear_velocity,
+                                     const Vector3& angular_velocity) {
+  // the origin translates at linear_velocity while the body spins about it
+  auto pose = [=](double t) {
+    Pose p = pose0;
+    p.translation += linear_velocity * t;
+    const double angle = angular_velocity.norm() * t;
+    if (angle > 0.0) {
+      p.rotation =
+          Eigen::AngleAxisd(angle, angular_velocity.normalized()).toRotationMatrix() * p.rotation;
+    }
+    return p;
+  };
+  auto twist = [=](double) {
+    Vector6 m;
+    m << angular_velocity, linear_velocity;
+    return m;
+  };
+  return DrivenBody{name, pose, twist};
+}
+
+int Model::bodyIndex(const std::string& name) const {
+  for (size_t i = 0; i < bodies.size(); ++i)
+    if (bodies[i].name == name) return static_cast<int>(i);
+  throw InputError("model: no body named '" + name + "'");
+}
+
+int Model::jointIndex(const std::string& name) const {
+  for (size_t i = 0; i < bodies.size(); ++i)
+    if (bodies[i].joint_name == name) return static_cast<int>(i);
+  throw InputError("model: no joint named '" + name + "'");
+}
+
+VectorX Model::neutralConfiguration() const {
+  VectorX q = VectorX::Zero(nq);
+  for (const Body& b : bodies)
+    if (b.joint.type == JointType::Floating) q[b.q_index + 6] = 1.0;
+  return q;
+}
+
+int ModelBuilder::addBody(int parent, const std::string& joint_name, const Joint& joint,
+                          const Pose& joint_placement, const Inertia& inertia,
+                          const std::string& body_name) {
+  const auto fail = [&](const std::string& why) {
+    throw InputError(source_ + ": body '" + body_name + "': " + why);
+  };
+  if (parent < -1 || parent >= bodyCount())
+    fail("parent index " + std::to_string(parent) + " does not exist");
+  if (!(inertia.mass >= 0.0)) fail("mass must be >= 0, got " + std::to_string(inertia.mass));
+  if (!inertia.com.allFinite() || !inertia.inertia_com.allFinite())
+    fail("inertia has non-finite entries");
+  if (!joint_placement.rotation.allFinite() || !joint_placement.translation.allFinite())
+    fail("joint placement has non-finite entries");
+  if (!joint.axis.allFinite() || std::abs(joint.axis.norm() - 1.0) > 1e-9)
+    fail("joint axis must be a unit vector");
+  Body b;
+  b.name = body_name;
+  b.joint_name = joint_name;
+  b.parent = parent;
+  b.joint = joint;
+  b.joint_placement = joint_placement;
+  b.inertia = inertia;
+  bodies_.push_back(b);
+  return bodyCount() - 1;
+}
+
+void ModelBuilder::addJointLimits(int body, double lower, double upper) {
+  if (body < 0 || body >= bodyCount()) throw InputError(source_ + ": joint limit on unknown body");
+  const Body& b = bodies_[body];
+  if (!b.joint.hasLimits())
+    throw InputError(source_ + ": joint '" + b.joint_name + "': limits need a 1-dof " +
+                     "revolute or prismatic joint, got " + toString(b.joint.type));
+  if (!(lower <= upper))
+    throw InputError(source_ + ": joint '" + b.joint_name + "': lower limit " +
+                     std::to_string(lower) + " exceeds upper limit " + std::to_string(upper));
+  limits_.push_back(JointLimit{body, 0, 0, lower, +1.0});
+  limits_.push_back(JointLimit{body, 0, 0, upper, -1.0});
+}
+
+void ModelBuilder::addCollision(const CollisionGeometry& geometry) {
+  if (geometry.body < 0 || geometry.body >= bodyCount())
+    throw InputError(source_ + ": collision geometry '" + geometry.name + "' on unknown body");
+  collisions_.push_back(geometry);
+}
+
+void ModelBuilder::addDrivenBody(const DrivenBody& body) {
+  driven_.push_back(body);
+}
+
+Model ModelBuilder::build() const {
+  const int n = bodyCount();
+  std::vector<std::vector<int>> children(n);
+  std::vector<int> roots;
+  for (int i = 0; i < n; ++i) {
+    if (bodies_[i].parent < 0)
+      roots.push_back(i);
+    else
+      children[bodies_[i].parent].push_back(i);
+  }
+  std::map<std::string, int> names;
+  for (int i = 0; i < n; ++i) {
+    if (!names.emplace(bodies_[i].name, i).second)
+      throw InputError(source_ + ": two bodies are named '" + bodies_[i].name + "'");
+  }
+
+  // depth-first order per root: parents precede children, components are contiguous
+  std::vector<int> order;
+  order.reserve(n);
+  std::vector<int> stack;
+  for (int root : roots) {
+    stack.push_back(root);
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      order.push_back(i);
+      for (auto c = children[i].rbegin(); c != children[i].rend(); ++c) stack.push_back(*c);
+    }
+  }
+  std::vector<int> new_index(n);
+  for (int k = 0; k < n; ++k) new_index[order[k]] = k;
+
+  Model model;
+  model.gravity = gravity_;
+  model.bodies.reserve(n);
+  int iq = 0, iv = 0;
+  for (int k = 0; k < n; ++k) {
+    Body b = bodies_[order[k]];
+    if (b.parent >= 0) b.parent = new_index[b.parent];
+    b.q_index = iq;
+    b.v_index = iv;
+    iq += b.joint.nq();
+    iv += b.joint.nv();
+    if (b.parent < 0) {
+      Component c;
+      c.first_body = k;
+      c.q_index = b.q_index;
+      c.v_index = b.v_index;
+      model.components.push_back(c);
+    }
+    b.component = static_cast<int>(model.components.size()) - 1;
+    model.bodies.push_back(b);
+  }
+  model.nq = iq;
+  model.nv = iv;
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    Component& comp = model.components[c];
+    comp.end_body = c + 1 < model.components.size() ? model.components[c + 1].first_body : n;
+    comp.nq =
+        (c + 1 < model.components.size() ? model.components[c + 1].q_index : iq) - comp.q_index;
+    comp.nv =
+        (c + 1 < model.components.size() ? model.components[c + 1].v_index : iv) - comp.v_index;
+    const Body& root = model.bodies[comp.first_body];
+    const bool single = comp.end_body == comp.first_body + 1;
+    const bool com_at_origin = root.inertia.com.norm() == 0.0;
+    switch (root.joint.type) {
+      case JointType::Revolute:
+      case JointType::Continuous:
+      case JointType::Prismatic:
+      case JointType::Fixed:
+        comp.constant_mass = single;
+        break;
+      case JointType::Planar:
+      case JointType::Floating:
+        comp.constant_mass = single && com_at_origin;
+        break;
+    }
+  }
+  for (JointLimit l : limits_) {
+    l.body = new_index[l.body];
+    l.q_index = model.bodies[l.body].q_index;
+    l.v_index = model.bodies[l.body].v_index;
+    model.limits.push_back(l);
+  }
+  for (CollisionGeometry g : collisions_) {
+    g.body = new_index[g.body];
+    model.collisions.push_back(g);
+  }
+  model.driven_bodies = driven_;
+
+  // every degree of freedom must move some inertia, or M is singular in every configuration
+  Data data(model);
+  crba(model, data, model.neutralConfiguration());
+  for (const Component& comp : model.components) {
+    if (comp.nv == 0) continue;
+    const MatrixX& block = data.mass_blocks[&comp - model.components.data()];
+    Eigen::LLT<MatrixX> llt(block);
+    const double max_diagonal = block.diagonal().maxCoeff();
+    if (llt.info() != Eigen::Success ||
+        llt.matrixLLT().diagonal().array().square().minCoeff() < 1e-12 * max_diagonal) {
+      std::ostringstream msg;
+      msg << source_ << ": mass matrix of the tree rooted at body '"
+          << model.bodies[comp.first_body].name
+          << "' is singular: some joint moves no mass or inertia";
+      throw InputError(msg.str());
+    }
+  }
+  return model;
+}
+
+}  // namespace sweep

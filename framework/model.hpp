@@ -1,0 +1,125 @@
+#pragma once
+// The immutable description of a multibody system: a forest of bodies, each attached to its
+// parent (or the world) by one joint, plus kinematically driven bodies, joint limits and
+// collision geometry records. Built once by ModelBuilder; algorithms take it by const
+// reference together with a Data workspace (framework/data.hpp).
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "framework/joint.hpp"
+#include "framework/spatial.hpp"
+
+namespace sweep {
+
+using VectorX = Eigen::VectorXd;
+using MatrixX = Eigen::MatrixXd;
+
+struct Body {
+  std::string name;
+  std::string joint_name;
+  int parent = -1;  // -1: the world
+  Joint joint;
+  Pose joint_placement;  // joint frame in the parent body frame (or world)
+  Inertia inertia;       // in the body frame
+  int q_index = 0;
+  int v_index = 0;
+  int component = 0;
+};
+
+// Bodies connected to the world through one root joint. M is block diagonal over components;
+// a component's bodies, coordinates and velocities are contiguous.
+struct Component {
+  int first_body = 0;
+  int end_body = 0;  // one past the last
+  int q_index = 0;
+  int nq = 0;
+  int v_index = 0;
+  int nv = 0;
+  // a single body whose mass block does not depend on q: computed and inverted once
+  bool constant_mass = false;
+};
+
+// A one-sided bound on a 1-dof joint, kept as a unilateral constraint for the contact solve:
+// gap = side * (q[q_index] - bound) >= 0 with side = +1 for a lower and -1 for an upper limit.
+struct JointLimit {
+  int body = 0;
+  int q_index = 0;
+  int v_index = 0;
+  double bound = 0.0;
+  double side = 1.0;
+};
+
+enum class GeometryType { Sphere, Box, Cylinder, Capsule, Mesh };
+
+// Collision geometry attached to a body, as read from URDF or a scene; contact/ turns these
+// into shapes.
+struct CollisionGeometry {
+  int body = 0;
+  std::string name;
+  Pose placement;  // geometry frame in the body frame
+  GeometryType type = GeometryType::Sphere;
+  double radius = 0.0;                 // sphere, cylinder, capsule
+  double length = 0.0;                 // cylinder, capsule (along the local z axis)
+  Vector3 box_size = Vector3::Zero();  // full edge lengths
+  std::string mesh_file;
+  Vector3 mesh_scale = Vector3::Ones();
+};
+
+// A body without degrees of freedom whose pose and velocity are prescribed functions of time
+// (a blade, a roller, a shutter). Its velocity enters contact velocities as a known term.
+struct DrivenBody {
+  std::string name;
+  std::function<Pose(double)> pose;  // body frame in world at time t
+  // world-frame twist (angular velocity, velocity of the body origin) at time t
+  std::function<Vector6(double)> twist;
+
+  static DrivenBody fixed(const std::string& name, const Pose& pose);
+  static DrivenBody constantTwist(const std::string& name, const Pose& pose0,
+                                  const Vector3& linear_velocity, const Vector3& angular_velocity);
+};
+
+struct Model {
+  std::vector<Body> bodies;
+  std::vector<Component> components;
+  std::vector<JointLimit> limits;
+  std::vector<CollisionGeometry> collisions;
+  std::vector<DrivenBody> driven_bodies;
+  Vector3 gravity = Vector3(0, 0, -9.81);
+  int nq = 0;
+  int nv = 0;
+
+  int bodyIndex(const std::string& name) const;   // throws InputError if absent
+  int jointIndex(const std::string& name) const;  // index of the body the joint moves
+  const Component& componentOf(int body) const { return components[bodies[body].component]; }
+  // the neutral configuration: zero coordinates, identity quaternions
+  VectorX neutralConfiguration() const;
+};
+
+class ModelBuilder {
+ public:
+  explicit ModelBuilder(std::string source = "model") : source_(std::move(source)) {}
+
+  // Adds a body attached to `parent` (-1 for the world); returns its index in this builder.
+  int addBody(int parent, const std::string& joint_name, const Joint& joint,
+              const Pose& joint_placement, const Inertia& inertia, const std::string& body_name);
+  void addJointLimits(int body, double lower, double upper);
+  void addCollision(const CollisionGeometry& geometry);
+  void addDrivenBody(const DrivenBody& body);
+  void setGravity(const Vector3& gravity) { gravity_ = gravity; }
+  int bodyCount() const { return static_cast<int>(bodies_.size()); }
+
+  // Orders bodies component by component (depth-first), assigns coordinate indices and checks
+  // that every degree of freedom moves some inertia (M positive definite).
+  Model build() const;
+
+ private:
+  std::string source_;
+  std::vector<Body> bodies_;
+  std::vector<JointLimit> limits_;  // body indices of this builder
+  std::vector<CollisionGeometry> collisions_;
+  std::vector<DrivenBody> driven_;
+  Vector3 gravity_ = Vector3(0, 0, -9.81);
+};
+
+}  // namespace sweep

@@ -1,0 +1,61 @@
+#include "framework/rnea.hpp"
+
+#include "framework/crba.hpp"
+#include "framework/kinematics.hpp"
+
+namespace sweep {
+
+namespace {
+
+// the RNEA passes, on poses and velocities already computed by forwardKinematics(q, v)
+const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, const VectorX* a) {
+  Vector6 base_acceleration;
+  base_acceleration << Vector3::Zero(), -model.gravity;
+
+  // forward pass: a_i = X_i a_parent + S_i qdd_i + c_J + v_i x (S_i qd_i);  f_i = I a + v x* I v
+  for (size_t i = 0; i < model.bodies.size(); ++i) {
+    const Body& body = model.bodies[i];
+    const MotionSubspace& S = data.motion_subspace[i];
+    const Vector6 joint_velocity = S.apply(v.data() + body.v_index);
+    const Vector6& parent_acceleration =
+        body.parent < 0 ? base_acceleration : data.acceleration[body.parent];
+    Vector6 acc = data.parent_pose[i].motionToChild(parent_acceleration) +
+                  data.bias_acceleration[i] + crossMotion(data.velocity[i], joint_velocity);
+    if (a) acc += S.apply(a->data() + body.v_index);
+    data.acceleration[i] = acc;
+    const Inertia& inertia = body.inertia;
+    data.force[i] =
+        inertia.apply(acc) + crossForce(data.velocity[i], inertia.apply(data.velocity[i]));
+  }
+
+  // backward pass: tau_i = S_i^T f_i, f_parent += X_i^* f_i
+  for (int i = static_cast<int>(model.bodies.size()) - 1; i >= 0; --i) {
+    const Body& body = model.bodies[i];
+    const MotionSubspace& S = data.motion_subspace[i];
+    S.applyTranspose(data.force[i], data.tau.data() + body.v_index);
+    if (body.parent >= 0)
+      data.force[body.parent] += data.parent_pose[i].forceToParent(data.force[i]);
+  }
+  return data.tau;
+}
+
+}  // namespace
+
+const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const VectorX& v,
+                    const VectorX& a) {
+  forwardKinematics(model, data, q, v);
+  return rneaPasses(model, data, v, &a);
+}
+
+const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
+  forwardKinematics(model, data, q, v);
+  return rneaPasses(model, data, v, nullptr);
+}
+
+void computeAllTerms(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
+  forwardKinematics(model, data, q, v);
+  rneaPasses(model, data, v, nullptr);
+  computeMassBlocks(model, data, /*include_constant=*/false);
+}
+
+}  // namespace sweep

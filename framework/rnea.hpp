@@ -1,0 +1,19 @@
+#pragma once
+// Inverse dynamics by the recursive Newton-Euler algorithm (Featherstone 2008, Table 5.1):
+// tau = M(q) a + C(q, v) v + g(q), gravity entering as a fictitious base acceleration.
+#include "framework/data.hpp"
+
+namespace sweep {
+
+// data.tau = M(q) a + b(q, v); also leaves body velocities and poses in data.
+const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const VectorX& v,
+                    const VectorX& a);
+
+// data.tau = b(q, v) = Coriolis + centrifugal + gyroscopic + gravity generalized forces.
+const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, const VectorX& v);
+
+// What a time step needs at one configuration, with one kinematic pass: poses, velocities,
+// the q-dependent mass blocks (data.mass_blocks) and the bias b(q, v) (data.tau).
+void computeAllTerms(const Model& model, Data& data, const VectorX& q, const VectorX& v);
+
+}  // namespace sweep

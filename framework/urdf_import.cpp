@@ -1,0 +1,296 @@
+#include "framework/urdf_import.hpp"
+
+#include <console_bridge/console.h>
+#include <tinyxml.h>
+#include <urdf_parser/urdf_parser.h>
+#include <Eigen/Eigenvalues>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <map>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+namespace {
+
+// urdfdom reports its reasons through console_bridge; keep them for our error message.
+class CapturedLog : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) {
+      if (!messages.empty()) messages += "; ";
+      messages += text;
+    }
+  }
+  std::string messages;
+};
+
+class LogCapture {
+ public:
+  LogCapture() { console_bridge::useOutputHandler(&log_); }
+  ~LogCapture() { console_bridge::restorePreviousOutputHandler(); }
+  const std::string& messages() const { return log_.messages; }
+
+ private:
+  CapturedLog log_;
+};
+
+Pose toPose(const urdf::Pose& p) {
+  Pose out;
+  out.translation = Vector3(p.position.x, p.position.y, p.position.z);
+  out.rotation = Quaternion(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                     .normalized()
+                     .toRotationMatrix();
+  return out;
+}
+
+std::string number(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+class Importer {
+ public:
+  Importer(ModelBuilder& builder, const std::string& source, const std::string& base_dir,
+           const UrdfOptions& options)
+      : builder_(builder), source_(source), base_dir_(base_dir), options_(options) {}
+
+  int run(const urdf::ModelInterface& urdf) {
+    const urdf::LinkConstSharedPtr root = urdf.getRoot();
+    if (!root) fail("<robot>", "has no root link");
+    if (root->name == "world") {
+      if (root->inertial && root->inertial->mass > 0.0)
+        fail("link 'world'", "the world link cannot carry mass");
+      int first = -1;
+      for (const auto& joint : root->child_joints) {
+        const int b = addJointAndSubtree(urdf, *joint, -1, options_.base_placement);
+        if (first < 0) first = b;
+      }
+      if (first < 0) fail("link 'world'", "has no child joint: nothing to simulate");
+      return first;
+    }
+    const Joint root_joint = options_.floating_base ? Joint::floating() : Joint::fixed();
+    const int body = builder_.addBody(-1, options_.name_prefix + "root_joint", root_joint,
+                                      options_.base_placement, linkInertia(*root),
+                                      options_.name_prefix + root->name);
+    addLinkContents(*root, body);
+    addChildren(urdf, *root, body);
+    return body;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& element, const std::string& reason) const {
+    throw InputError(source_ + ": " + element + ": " + reason);
+  }
+
+  Inertia linkInertia(const urdf::Link& link) const {
+    if (!link.inertial) return Inertia::zero();  // links without <inertial> are massless
+    const urdf::Inertial& in = *link.inertial;
+    const std::string where = "link '" + link.name + "' <inertial>";
+    if (!std::isfinite(in.mass)) fail(where, "mass is not finite");
+    if (in.mass < 0.0) fail(where, "mass must be >= 0, got " + number(in.mass));
+    Matrix3 inertia;
+    inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+    if (!inertia.allFinite()) fail(where, "inertia has non-finite entries");
+    const Eigen::SelfAdjointEigenSolver<Matrix3> eig(inertia);
+    const Vector3 principal = eig.eigenvalues();  // ascending
+    const double scale = std::max(principal.cwiseAbs().maxCoeff(), 1e-300);
+    if (in.mass > 0.0 && principal[0] <= 0.0)
+      fail(where, "inertia tensor is not positive definite (principal moments " +
+                      number(principal[0]) + ", " + number(principal[1]) + ", " +
+                      number(principal[2]) + ")");
+    if (principal[0] < -1e-12 * scale)
+      fail(where, "inertia tensor has a negative principal moment " + number(principal[0]));
+    // a real mass distribution has I1 + I2 >= I3 for its principal moments
+    if (principal[0] + principal[1] < principal[2] * (1.0 - 1e-9))
+      fail(where, "principal moments " + number(principal[0]) + ", " + number(principal[1]) + ", " +
+                      number(principal[2]) + " violate the triangle inequality");
+    const Pose frame = toPose(in.origin);
+    return Inertia{in.mass, frame.translation,
+                   frame.rotation * inertia * frame.rotation.transpose()};
+  }
+
+  void addLinkContents(const urdf::Link& link, int body) {
+    for (const auto& collision : link.collision_array) {
+      if (!collision || !collision->geometry) continue;
+      CollisionGeometry g;
+      g.body = body;
+      g.name = collision->name.empty() ? link.name : collision->name;
+      g.placement = toPose(collision->origin);
+      const std::string where = "link '" + link.name + "' <collision>";
+      switch (collision->geometry->type) {
+        case urdf::Geometry::SPHERE:
+          g.type = GeometryType::Sphere;
+          g.radius = static_cast<const urdf::Sphere&>(*collision->geometry).radius;
+          if (!(g.radius > 0)) fail(where, "sphere radius must be > 0, got " + number(g.radius));
+          break;
+        case urdf::Geometry::BOX: {
+          const auto& d = static_cast<const urdf::Box&>(*collision->geometry).dim;
+          g.type = GeometryType::Box;
+          g.box_size = Vector3(d.x, d.y, d.z);
+          if (!(g.box_size.minCoeff() > 0)) fail(where, "box sizes must be > 0");
+          break;
+        }
+        case urdf::Geometry::CYLINDER: {
+          const auto& c = static_cast<const urdf::Cylinder&>(*collision->geometry);
+          g.type = GeometryType::Cylinder;
+          g.radius = c.radius;
+          g.length = c.length;
+          if (!(g.radius > 0 && g.length > 0))
+            fail(where, "cylinder radius and length must be > 0");
+          break;
+        }
+        case urdf::Geometry::MESH: {
+          const auto& m = static_cast<const urdf::Mesh&>(*collision->geometry);
+          g.type = GeometryType::Mesh;
+          g.mesh_file = resolveMesh(m.filename);
+          g.mesh_scale = Vector3(m.scale.x, m.scale.y, m.scale.z);
+          break;
+        }
+      }
+      builder_.addCollision(g);
+    }
+  }
+
+  std::string resolveMesh(const std::string& name) const {
+    const std::string file_scheme = "file://";
+    std::string path = name.rfind(file_scheme, 0) == 0 ? name.substr(file_scheme.size()) : name;
+    // package:// paths need a ROS package index; keep them for the contact layer to resolve
+    if (path.rfind("package://", 0) == 0 || base_dir_.empty()) return path;
+    const std::filesystem::path p(path);
+    return p.is_absolute() ? path : (std::filesystem::path(base_dir_) / p).string();
+  }
+
+  Joint toJoint(const urdf::Joint& j) const {
+    const std::string where = "joint '" + j.name + "'";
+    const Vector3 axis(j.axis.x, j.axis.y, j.axis.z);
+    const bool needs_axis = j.type == urdf::Joint::REVOLUTE || j.type == urdf::Joint::CONTINUOUS ||
+                            j.type == urdf::Joint::PRISMATIC || j.type == urdf::Joint::PLANAR;
+    if (needs_axis && !(axis.allFinite() && axis.norm() > 1e-12))
+      fail(where, "axis must have non-zero length, got (" + number(axis.x()) + " " +
+                      number(axis.y()) + " " + number(axis.z()) + ")");
+    switch (j.type) {
+      case urdf::Joint::REVOLUTE:
+        return Joint::revolute(axis);
+      case urdf::Joint::CONTINUOUS:
+        return Joint::continuous(axis);
+      case urdf::Joint::PRISMATIC:
+        return Joint::prismatic(axis);
+      case urdf::Joint::FIXED:
+        return Joint::fixed();
+      case urdf::Joint::FLOATING:
+        return Joint::floating();
+      case urdf::Joint::PLANAR:
+        return Joint::planar(axis);
+      default:
+        fail(where, "unknown joint type");
+    }
+  }
+
+  int addJointAndSubtree(const urdf::ModelInterface& urdf, const urdf::Joint& j, int parent,
+                         const Pose& parent_offset) {
+    const urdf::LinkConstSharedPtr link = urdf.getLink(j.child_link_name);
+    if (!link) fail("joint '" + j.name + "'", "child link '" + j.child_link_name + "' not found");
+    const int body = builder_.addBody(parent, options_.name_prefix + j.name, toJoint(j),
+                                      parent_offset * toPose(j.parent_to_joint_origin_transform),
+                                      linkInertia(*link), options_.name_prefix + link->name);
+    if ((j.type == urdf::Joint::REVOLUTE || j.type == urdf::Joint::PRISMATIC)) {
+      if (!j.limits) fail("joint '" + j.name + "'", "revolute and prismatic joints need <limit>");
+      if (!(std::isfinite(j.limits->lower) && std::isfinite(j.limits->upper)))
+        fail("joint '" + j.name + "' <limit>", "lower and upper must be finite");
+      if (j.limits->lower > j.limits->upper)
+        fail("joint '" + j.name + "' <limit>",
+             "lower " + number(j.limits->lower) + " exceeds upper " + number(j.limits->upper));
+      // URDF's default limit 0..0 on a revolute joint means "no limits given"
+      if (j.limits->lower < j.limits->upper)
+        builder_.addJointLimits(body, j.limits->lower, j.limits->upper);
+    }
+    addLinkContents(*link, body);
+    addChildren(urdf, *link, body);
+    return body;
+  }
+
+  void addChildren(const urdf::ModelInterface& urdf, const urdf::Link& link, int body) {
+    for (const auto& joint : link.child_joints) addJointAndSubtree(urdf, *joint, body, Pose{});
+  }
+
+  ModelBuilder& builder_;
+  std::string source_;
+  std::string base_dir_;
+  UrdfOptions options_;
+};
+
+// Checks urdfdom does not make, or reports less precisely: XML syntax with its line, and a
+// link claimed as the child of two joints (urdfdom only sees "two root links" then).
+void precheckXml(const std::string& xml, const std::string& source) {
+  TiXmlDocument doc;
+  doc.Parse(xml.c_str());
+  if (doc.Error())
+    throw InputError(source + ": line " + std::to_string(doc.ErrorRow()) + ", column " +
+                     std::to_string(doc.ErrorCol()) + ": malformed XML: " + doc.ErrorDesc());
+  const TiXmlElement* robot = doc.FirstChildElement("robot");
+  if (!robot) throw InputError(source + ": not a valid URDF: no <robot> element");
+  std::map<std::string, std::string> parent_joint;
+  for (const TiXmlElement* j = robot->FirstChildElement("joint"); j;
+       j = j->NextSiblingElement("joint")) {
+    const TiXmlElement* child = j->FirstChildElement("child");
+    const char* link = child ? child->Attribute("link") : nullptr;
+    const char* name = j->Attribute("name");
+    if (!link || !name) continue;  // urdfdom names the missing part
+    const auto [it, fresh] = parent_joint.emplace(link, name);
+    if (!fresh)
+      throw InputError(source + ": link '" + link +
+                       "' has two parents: it is the child of joints '" + it->second + "' and '" +
+                       name + "'");
+  }
+}
+
+int importParsed(ModelBuilder& builder, const std::string& xml, const std::string& source,
+                 const std::string& base_dir, const UrdfOptions& options) {
+  precheckXml(xml, source);
+  urdf::ModelInterfaceSharedPtr urdf;
+  std::string reasons;
+  {
+    LogCapture capture;
+    try {
+      urdf = urdf::parseURDF(xml);
+    } catch (const std::exception& e) {
+      reasons = e.what();
+    }
+    if (reasons.empty()) reasons = capture.messages();
+  }
+  if (!urdf)
+    throw InputError(source + ": not a valid URDF" + (reasons.empty() ? "" : ": " + reasons));
+  return Importer(builder, source, base_dir, options).run(*urdf);
+}
+
+}  // namespace
+
+int addUrdfString(ModelBuilder& builder, const std::string& xml, const std::string& source,
+                  const UrdfOptions& options) {
+  return importParsed(builder, xml, source, "", options);
+}
+
+int addUrdf(ModelBuilder& builder, const std::string& path, const UrdfOptions& options) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw InputError(path + ": URDF file does not exist or is not a regular file");
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open URDF file");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  return importParsed(builder, text.str(), path, dir, options);
+}
+
+Model loadUrdf(const std::string& path, const UrdfOptions& options) {
+  ModelBuilder builder(path);
+  addUrdf(builder, path, options);
+  return builder.build();
+}
+
+}  // namespace sweep

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs every build, test and plotting dependency of Sweep from Debian 12's own archive.
+# Idempotent: when everything is already installed it touches nothing (and needs no network).
+set -euo pipefail
+
+packages=(
+  build-essential cmake clang-format
+  libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libsundials-dev libyaml-cpp-dev
+  libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev
+  python3-matplotlib python3-numpy
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+sudo_cmd=()
+[ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+"${sudo_cmd[@]}" apt-get update -qq
+DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

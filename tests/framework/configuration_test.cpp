@@ -1,0 +1,63 @@
+#include "framework/configuration.hpp"
+
+#include <gtest/gtest.h>
+
+#include "test_models.hpp"
+
+namespace sweep {
+namespace {
+
+class ConfigurationTest : public ::testing::TestWithParam<int> {};
+
+TEST_P(ConfigurationTest, DifferenceInvertsIntegrate) {
+  const auto models = test::allModels();
+  const Model& model = models[GetParam()].model;
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    const VectorX q = test::randomConfiguration(model, rng);
+    const VectorX dv = test::randomVector(model.nv, rng);  // rotations below pi
+    const VectorX q1 = integrate(model, q, dv);
+    EXPECT_LT((difference(model, q, q1) - dv).norm(), 1e-12);
+    EXPECT_LT(difference(model, q1, q1).norm(), 1e-12);
+  }
+}
+
+TEST_P(ConfigurationTest, ConfigurationRateIsDerivativeOfIntegrate) {
+  const auto models = test::allModels();
+  const Model& model = models[GetParam()].model;
+  std::mt19937 rng(11);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  VectorX qdot;
+  configurationRate(model, q, v, qdot);
+  const double eps = 1e-6;
+  const VectorX fd = (integrate(model, q, eps * v) - integrate(model, q, -eps * v)) / (2 * eps);
+  // central differences: error O(eps^2)
+  EXPECT_LT((fd - qdot).norm(), 1e-8);
+}
+
+TEST(Configuration, QuaternionsStayUnitAndNqDiffersFromNv) {
+  const Model model = test::floatingArm();
+  EXPECT_EQ(model.nq, model.nv + 1);
+  VectorX q = model.neutralConfiguration();
+  VectorX dv = VectorX::Zero(model.nv);
+  dv.segment<3>(3) = Vector3(0.3, -2.0, 1.1);
+  for (int k = 0; k < 1000; ++k) q = integrate(model, q, dv);
+  EXPECT_NEAR(q.segment<4>(3).norm(), 1.0, 1e-14);
+}
+
+TEST(Configuration, PlanarAnglesAddExactly) {
+  ModelBuilder b;
+  addPlanarBody(b, "disk", solidDiskInertia(1.0, 0.1));
+  const Model model = b.build();
+  VectorX q(3), dv(3);
+  q << 1.0, 2.0, 3.0;
+  dv << 0.5, -0.25, 10.0;  // angles are not wrapped: a spinning disk counts its turns
+  EXPECT_EQ(integrate(model, q, dv), q + dv);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllModels, ConfigurationTest, ::testing::Range(0, test::modelCount()),
+                         test::modelName);
+
+}  // namespace
+}  // namespace sweep

@@ -1,0 +1,74 @@
+#include "framework/jacobian.hpp"
+
+#include <gtest/gtest.h>
+
+#include "framework/configuration.hpp"
+#include "framework/kinematics.hpp"
+#include "test_models.hpp"
+
+namespace sweep {
+namespace {
+
+class JacobianTest : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override { model_ = std::make_unique<Model>(test::allModels()[GetParam()].model); }
+  std::unique_ptr<Model> model_;
+};
+
+Vector3 rotationVector(const Matrix3& r) {
+  const Eigen::AngleAxisd aa(r);
+  return aa.angle() * aa.axis();
+}
+
+TEST_P(JacobianTest, EveryBodyPointMatchesFiniteDifferences) {
+  const Model& model = *model_;
+  Data data(model);
+  std::mt19937 rng(29);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  forwardKinematics(model, data, q);
+  const double eps = 1e-6;
+  Data plus(model), minus(model);
+  forwardKinematics(model, plus, integrate(model, q, eps * v));
+  forwardKinematics(model, minus, integrate(model, q, -eps * v));
+  for (size_t body = 0; body < model.bodies.size(); ++body) {
+    const int b = static_cast<int>(body);
+    const Vector3 local = Vector3(0.1, -0.2, 0.3);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> J =
+        Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.nv);
+    pointJacobian(model, data, b, bodyPointInWorld(data, b, local), J);
+    const Vector6 twist = J * v;
+    const Vector3 velocity_fd =
+        (bodyPointInWorld(plus, b, local) - bodyPointInWorld(minus, b, local)) / (2 * eps);
+    const Vector3 omega_fd =
+        rotationVector(plus.world_pose[b].rotation * minus.world_pose[b].rotation.transpose()) /
+        (2 * eps);
+    EXPECT_LT((twist.tail<3>() - velocity_fd).norm(), 1e-7) << "body " << body;
+    EXPECT_LT((twist.head<3>() - omega_fd).norm(), 1e-7) << "body " << body;
+  }
+}
+
+TEST_P(JacobianTest, FrameJacobianAgreesWithBodyVelocity) {
+  // the angular rows and the origin velocity match the spatial velocity of the kinematics
+  const Model& model = *model_;
+  Data data(model);
+  std::mt19937 rng(31);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  forwardKinematics(model, data, q, v);
+  for (size_t body = 0; body < model.bodies.size(); ++body) {
+    Eigen::Matrix<double, 6, Eigen::Dynamic> J =
+        Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.nv);
+    frameJacobian(model, data, static_cast<int>(body), Pose{}, J);
+    const Matrix3& r = data.world_pose[body].rotation;
+    const Vector6& vb = data.velocity[body];
+    EXPECT_LT(((J * v).head<3>() - r * vb.head<3>()).norm(), 1e-12);
+    EXPECT_LT(((J * v).tail<3>() - r * vb.tail<3>()).norm(), 1e-12);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllModels, JacobianTest, ::testing::Range(0, test::modelCount()),
+                         test::modelName);
+
+}  // namespace
+}  // namespace sweep

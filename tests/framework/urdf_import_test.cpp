@@ -1,0 +1,141 @@
+#include "framework/urdf_import.hpp"
+
+#include <gtest/gtest.h>
+
+#include "framework/crba.hpp"
+#include "framework/error.hpp"
+#include "framework/rnea.hpp"
+#include "models/kinematic_trees.hpp"
+#include "test_models.hpp"
+
+namespace sweep {
+namespace {
+
+std::string urdfPath(const std::string& name) {
+  return std::string(SWEEP_TEST_DATA) + "/urdf/" + name;
+}
+
+TEST(UrdfImport, DoublePendulumMatchesHandCodedModel) {
+  Model from_urdf = loadUrdf(urdfPath("double_pendulum.urdf"));
+  DoublePendulumParameters p;
+  p.tip_inertia = 0.01;
+  const Model coded = doublePendulum(p);
+  from_urdf.gravity = coded.gravity;  // URDF carries no gravity
+  ASSERT_EQ(from_urdf.nv, 2);
+  Data a(from_urdf), b(coded);
+  std::mt19937 rng(37);
+  for (int trial = 0; trial < 5; ++trial) {
+    const VectorX q = test::randomConfiguration(coded, rng);
+    const VectorX v = test::randomVector(2, rng);
+    crba(from_urdf, a, q);
+    crba(coded, b, q);
+    EXPECT_LT((denseMassMatrix(from_urdf, a) - denseMassMatrix(coded, b)).norm(), 1e-13);
+    EXPECT_LT((biasForces(from_urdf, a, q, v) - biasForces(coded, b, q, v)).norm(), 1e-12);
+  }
+  // "world" root: the joints attach to the world, no extra body
+  EXPECT_EQ(from_urdf.bodies.size(), 2u);
+  EXPECT_EQ(from_urdf.bodies[from_urdf.jointIndex("elbow")].name, "lower");
+}
+
+TEST(UrdfImport, ArmWithOffsetsLimitsAndCollisions) {
+  const Model m = loadUrdf(urdfPath("arm6.urdf"));
+  EXPECT_EQ(m.nq, 6);
+  EXPECT_EQ(m.nv, 6);
+  EXPECT_EQ(m.bodies.size(), 8u);   // base, six links, tool0 (fixed)
+  EXPECT_EQ(m.limits.size(), 10u);  // five limited joints, continuous joint6 unlimited
+  const JointLimit& lower = m.limits[0];
+  EXPECT_EQ(lower.q_index, m.bodies[m.jointIndex("joint1")].q_index);
+  EXPECT_DOUBLE_EQ(lower.bound, -3.0);
+  ASSERT_EQ(m.collisions.size(), 5u);
+  int meshes = 0;
+  for (const CollisionGeometry& g : m.collisions) {
+    if (g.type != GeometryType::Mesh) continue;
+    ++meshes;
+    EXPECT_EQ(g.mesh_file, urdfPath("meshes/link3.stl"));
+    EXPECT_DOUBLE_EQ(g.mesh_scale.x(), 0.001);
+    EXPECT_EQ(m.bodies[g.body].name, "link3");
+  }
+  EXPECT_EQ(meshes, 1);
+  // the inertial rpy rotates the tensor: trace is invariant, the diagonal is not
+  const Inertia& link1 = m.bodies[m.bodyIndex("link1")].inertia;
+  EXPECT_NEAR(link1.inertia_com.trace(), 0.040 + 0.045 + 0.030, 1e-14);
+  EXPECT_GT(std::abs(link1.inertia_com(0, 0) - 0.040), 1e-4);
+  EXPECT_LT((link1.com - Vector3(0.01, 0.02, 0.08)).norm(), 1e-15);
+}
+
+TEST(UrdfImport, BranchedTree) {
+  const Model m = loadUrdf(urdfPath("branched.urdf"));
+  EXPECT_EQ(m.nv, 4);
+  const int torso = m.bodyIndex("torso");
+  EXPECT_EQ(m.bodies[m.bodyIndex("left_upper")].parent, torso);
+  EXPECT_EQ(m.bodies[m.bodyIndex("right_upper")].parent, torso);
+  EXPECT_EQ(m.bodies[m.jointIndex("right_extend")].joint.type, JointType::Prismatic);
+  // left_elbow's limits are [0, 2.5]: URDF's explicit zero lower bound is kept
+  int elbow_limits = 0;
+  for (const JointLimit& l : m.limits)
+    if (l.body == m.jointIndex("left_elbow")) ++elbow_limits;
+  EXPECT_EQ(elbow_limits, 2);
+}
+
+TEST(UrdfImport, FloatingBase) {
+  const Model fixed = loadUrdf(urdfPath("floating_base.urdf"));
+  UrdfOptions options;
+  options.floating_base = true;
+  options.name_prefix = "robot1/";
+  const Model floating = loadUrdf(urdfPath("floating_base.urdf"), options);
+  EXPECT_EQ(fixed.nv, 2);
+  EXPECT_EQ(floating.nq, 7 + 2);
+  EXPECT_EQ(floating.nv, 6 + 2);
+  EXPECT_EQ(floating.bodies[0].joint.type, JointType::Floating);
+  EXPECT_EQ(floating.bodies[0].name, "robot1/body");
+  EXPECT_NO_THROW(floating.jointIndex("robot1/knee"));
+}
+
+struct BadUrdf {
+  std::string file;
+  std::string expected;  // part of the message
+};
+
+class BadUrdfTest : public ::testing::TestWithParam<BadUrdf> {};
+
+TEST_P(BadUrdfTest, ClearErrorNamingFileElementAndReason) {
+  const BadUrdf& bad = GetParam();
+  const std::string path = urdfPath("bad/" + bad.file);
+  try {
+    loadUrdf(path);
+    FAIL() << bad.file << " was accepted";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find(path), std::string::npos) << message;
+    EXPECT_NE(message.find(bad.expected), std::string::npos) << message;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Catalogue, BadUrdfTest,
+    ::testing::Values(BadUrdf{"missing.urdf", "does not exist"},
+                      BadUrdf{"malformed.urdf", "line 5, column 3: malformed XML"},
+                      BadUrdf{"unknown_joint_type.urdf", "helical"},
+                      BadUrdf{"negative_mass.urdf",
+                              "link 'b' <inertial>: mass must be >= 0, got -2.5"},
+                      BadUrdf{"inertia_not_positive.urdf",
+                              "link 'b' <inertial>: inertia tensor is not positive definite"},
+                      BadUrdf{"inertia_triangle.urdf", "violate the triangle inequality"},
+                      BadUrdf{"two_parents.urdf", "link 'c' has two parents"},
+                      BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"}),
+    [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
+      return param_info.param.file.substr(0, param_info.param.file.find('.'));
+    });
+
+TEST(UrdfImport, StringSourceIsNamedInErrors) {
+  ModelBuilder b;
+  try {
+    addUrdfString(b, "<robot name='x'><link name='a'/>", "inline.urdf");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("inline.urdf"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace sweep
