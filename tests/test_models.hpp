@@ -72,7 +72,9 @@ inline std::vector<NamedModel> allModels() {
           {"mixed", mixedBodies()},
           {"urdf_arm6", loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/arm6.urdf")},
           {"urdf_floating", loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/floating_base.urdf",
-                                     UrdfOptions{true, Pose{}, ""})}};
+                                     UrdfOptions{true, Pose{}, ""})},
+          {"urdf_planar_floating",
+           loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/planar_and_floating_joints.urdf")}};
 }
 
 inline bool hasQuaternions(const Model& m) {

@@ -4,6 +4,7 @@
 
 #include "framework/crba.hpp"
 #include "framework/error.hpp"
+#include "framework/kinematics.hpp"
 #include "framework/rnea.hpp"
 #include "models/kinematic_trees.hpp"
 #include "test_models.hpp"
@@ -89,6 +90,24 @@ TEST(UrdfImport, FloatingBase) {
   EXPECT_EQ(floating.bodies[0].joint.type, JointType::Floating);
   EXPECT_EQ(floating.bodies[0].name, "robot1/body");
   EXPECT_NO_THROW(floating.jointIndex("robot1/knee"));
+}
+
+TEST(UrdfImport, PlanarAndFloatingJointTypes) {
+  const Model m = loadUrdf(urdfPath("planar_and_floating_joints.urdf"));
+  EXPECT_EQ(m.nq, 3 + 7);
+  EXPECT_EQ(m.nv, 3 + 6);
+  const Body& cart = m.bodies[m.jointIndex("rail")];
+  EXPECT_EQ(cart.joint.type, JointType::Planar);
+  EXPECT_LT((cart.joint.axis - Vector3::UnitY()).norm(), 1e-15);
+  EXPECT_EQ(m.bodies[m.jointIndex("float")].joint.type, JointType::Floating);
+  // the planar joint moves the cart in the plane normal to y: its height changes, y does not
+  Data data(m);
+  VectorX q = m.neutralConfiguration();
+  q.head<3>() << 0.3, -0.2, 0.5;
+  forwardKinematics(m, data, q);
+  const Vector3 p = data.world_pose[m.bodyIndex("cart")].translation;
+  EXPECT_NEAR(p.y(), 0.0, 1e-15);
+  EXPECT_NEAR((p - Vector3(0, 0, 1)).norm(), std::hypot(0.3, 0.2), 1e-15);
 }
 
 struct BadUrdf {
