@@ -8,46 +8,31 @@
 
 namespace {
 
-void runCrbaRnea(benchmark::State& state, const sweep::Model& model) {
+// Times `work(model, data, q, v)` at a fixed, generic state.
+template <class Work>
+void run(benchmark::State& state, const sweep::Model& model, Work work) {
   sweep::Data data(model);
   const sweep::VectorX q = sweep::VectorX::LinSpaced(model.nq, -0.7, 0.9);
   const sweep::VectorX v = sweep::VectorX::LinSpaced(model.nv, 0.4, -0.6);
   for (auto _ : state) {
-    sweep::crba(model, data, q);
-    sweep::biasForces(model, data, q, v);
+    work(model, data, q, v);
     benchmark::DoNotOptimize(data.mass_blocks[0].data());
     benchmark::DoNotOptimize(data.tau.data());
   }
 }
 
-void runAllTerms(benchmark::State& state, const sweep::Model& model) {
-  sweep::Data data(model);
-  const sweep::VectorX q = sweep::VectorX::LinSpaced(model.nq, -0.7, 0.9);
-  const sweep::VectorX v = sweep::VectorX::LinSpaced(model.nv, 0.4, -0.6);
-  for (auto _ : state) {
-    sweep::computeAllTerms(model, data, q, v);
-    benchmark::DoNotOptimize(data.mass_blocks[0].data());
-    benchmark::DoNotOptimize(data.tau.data());
-  }
+void crbaAndRnea(const sweep::Model& m, sweep::Data& d, const sweep::VectorX& q,
+                 const sweep::VectorX& v) {
+  sweep::crba(m, d, q);
+  sweep::biasForces(m, d, q, v);
 }
-
-void runCrba(benchmark::State& state, const sweep::Model& model) {
-  sweep::Data data(model);
-  const sweep::VectorX q = sweep::VectorX::LinSpaced(model.nq, -0.7, 0.9);
-  for (auto _ : state) {
-    sweep::crba(model, data, q);
-    benchmark::DoNotOptimize(data.mass_blocks[0].data());
-  }
+void crbaOnly(const sweep::Model& m, sweep::Data& d, const sweep::VectorX& q,
+              const sweep::VectorX&) {
+  sweep::crba(m, d, q);
 }
-
-void runRnea(benchmark::State& state, const sweep::Model& model) {
-  sweep::Data data(model);
-  const sweep::VectorX q = sweep::VectorX::LinSpaced(model.nq, -0.7, 0.9);
-  const sweep::VectorX v = sweep::VectorX::LinSpaced(model.nv, 0.4, -0.6);
-  for (auto _ : state) {
-    sweep::biasForces(model, data, q, v);
-    benchmark::DoNotOptimize(data.tau.data());
-  }
+void rneaOnly(const sweep::Model& m, sweep::Data& d, const sweep::VectorX& q,
+              const sweep::VectorX& v) {
+  sweep::biasForces(m, d, q, v);
 }
 
 const sweep::Model& arm() {
@@ -60,28 +45,28 @@ const sweep::Model& tree30() {
 }
 
 void BM_Arm6_CrbaRnea(benchmark::State& s) {
-  runCrbaRnea(s, arm());
+  run(s, arm(), crbaAndRnea);
 }
 void BM_Arm6_AllTerms(benchmark::State& s) {
-  runAllTerms(s, arm());
+  run(s, arm(), sweep::computeAllTerms);
 }
 void BM_Tree30_AllTerms(benchmark::State& s) {
-  runAllTerms(s, tree30());
+  run(s, tree30(), sweep::computeAllTerms);
 }
 void BM_Arm6_Crba(benchmark::State& s) {
-  runCrba(s, arm());
+  run(s, arm(), crbaOnly);
 }
 void BM_Arm6_Rnea(benchmark::State& s) {
-  runRnea(s, arm());
+  run(s, arm(), rneaOnly);
 }
 void BM_Tree30_CrbaRnea(benchmark::State& s) {
-  runCrbaRnea(s, tree30());
+  run(s, tree30(), crbaAndRnea);
 }
 void BM_Tree30_Crba(benchmark::State& s) {
-  runCrba(s, tree30());
+  run(s, tree30(), crbaOnly);
 }
 void BM_Tree30_Rnea(benchmark::State& s) {
-  runRnea(s, tree30());
+  run(s, tree30(), rneaOnly);
 }
 
 }  // namespace

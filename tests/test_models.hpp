@@ -2,6 +2,7 @@
 // Models and random states shared by the framework tests.
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -106,6 +107,13 @@ namespace sweep::test {
 inline int modelCount() {
   return static_cast<int>(allModels().size());
 }
+
+// Fixture of the tests run on every model of allModels(); the parameter is the model index.
+class ModelTest : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override { model_ = std::make_unique<Model>(allModels()[GetParam()].model); }
+  std::unique_ptr<Model> model_;
+};
 
 // test-name suffix for a model index parameter
 inline std::string modelName(const ::testing::TestParamInfo<int>& info) {

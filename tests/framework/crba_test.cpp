@@ -11,11 +11,7 @@
 namespace sweep {
 namespace {
 
-class CrbaTest : public ::testing::TestWithParam<int> {
- protected:
-  void SetUp() override { model_ = std::make_unique<Model>(test::allModels()[GetParam()].model); }
-  std::unique_ptr<Model> model_;
-};
+class CrbaTest : public test::ModelTest {};
 
 TEST_P(CrbaTest, MassMatrixIsSymmetricPositiveDefinite) {
   const Model& model = *model_;

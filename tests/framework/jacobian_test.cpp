@@ -9,11 +9,7 @@
 namespace sweep {
 namespace {
 
-class JacobianTest : public ::testing::TestWithParam<int> {
- protected:
-  void SetUp() override { model_ = std::make_unique<Model>(test::allModels()[GetParam()].model); }
-  std::unique_ptr<Model> model_;
-};
+class JacobianTest : public test::ModelTest {};
 
 Vector3 rotationVector(const Matrix3& r) {
   const Eigen::AngleAxisd aa(r);

@@ -11,11 +11,7 @@
 namespace sweep {
 namespace {
 
-class RneaTest : public ::testing::TestWithParam<int> {
- protected:
-  void SetUp() override { model_ = std::make_unique<Model>(test::allModels()[GetParam()].model); }
-  std::unique_ptr<Model> model_;
-};
+class RneaTest : public test::ModelTest {};
 
 MatrixX massAt(const Model& model, Data& data, const VectorX& q) {
   crba(model, data, q);
