@@ -22,10 +22,10 @@ DrivenBody DrivenBody::constantTwist(const std::string& name, const Pose& pose0,
   auto pose = [=](double t) {
     Pose p = pose0;
     p.translation += linear_velocity * t;
-    const double angle = angular_velocity.norm() * t;
-    if (angle > 0.0) {
+    const double rate = angular_velocity.norm();
+    if (rate > 0.0) {
       p.rotation =
-          Eigen::AngleAxisd(angle, angular_velocity.normalized()).toRotationMatrix() * p.rotation;
+          Eigen::AngleAxisd(rate * t, angular_velocity / rate).toRotationMatrix() * p.rotation;
     }
     return p;
   };
@@ -102,7 +102,14 @@ void ModelBuilder::addCollision(const CollisionGeometry& geometry) {
 }
 
 void ModelBuilder::addDrivenBody(const DrivenBody& body) {
+  if (!body.pose || !body.twist)
+    throw InputError(source_ + ": driven body '" + body.name + "' needs a pose and a twist");
   driven_.push_back(body);
+}
+
+void ModelBuilder::setGravity(const Vector3& gravity) {
+  if (!gravity.allFinite()) throw InputError(source_ + ": gravity has non-finite entries");
+  gravity_ = gravity;
 }
 
 Model ModelBuilder::build() const {

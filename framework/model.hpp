@@ -106,7 +106,7 @@ class ModelBuilder {
   void addJointLimits(int body, double lower, double upper);
   void addCollision(const CollisionGeometry& geometry);
   void addDrivenBody(const DrivenBody& body);
-  void setGravity(const Vector3& gravity) { gravity_ = gravity; }
+  void setGravity(const Vector3& gravity);
   int bodyCount() const { return static_cast<int>(bodies_.size()); }
 
   // Orders bodies component by component (depth-first), assigns coordinate indices and checks

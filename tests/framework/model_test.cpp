@@ -64,6 +64,7 @@ TEST(Model, RejectsBadBodies) {
   Joint zero_axis = Joint::revolute(Vector3::UnitX());
   zero_axis.axis = Vector3::Zero();
   EXPECT_THROW(b.addBody(-1, "j", zero_axis, Pose{}, Inertia{}, "x"), InputError);
+  EXPECT_THROW(b.setGravity(Vector3(0, std::nan(""), 0)), InputError);
 }
 
 TEST(Model, RejectsDegreeOfFreedomWithoutInertia) {
@@ -92,6 +93,11 @@ TEST(Model, DrivenBodiesFollowTheirMotion) {
   EXPECT_LT((blade.pose(2.0).translation - Vector3(1.2, 2, 3)).norm(), 1e-15);
   const Matrix3 expected = Eigen::AngleAxisd(4.0, Vector3::UnitZ()).toRotationMatrix();
   EXPECT_LT((blade.pose(2.0).rotation - expected).norm(), 1e-14);
+  const Matrix3 backwards = Eigen::AngleAxisd(-1.0, Vector3::UnitZ()).toRotationMatrix();
+  EXPECT_LT((blade.pose(-0.5).rotation - backwards).norm(), 1e-14);
+  const DrivenBody wall = DrivenBody::fixed("wall", start);
+  EXPECT_EQ(wall.pose(3.0).translation, start.translation);
+  EXPECT_EQ(wall.twist(3.0), Vector6::Zero());
   EXPECT_EQ(blade.twist(5.0)[2], 2.0);
   EXPECT_EQ(blade.twist(5.0)[3], 0.1);
   ModelBuilder b;
