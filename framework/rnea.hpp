@@ -5,6 +5,9 @@
 
 namespace sweep {
 
+// Both functions return a reference to data.tau: copy the result before the next call (two
+// calls inside one expression alias each other).
+//
 // data.tau = M(q) a + b(q, v); also leaves body velocities and poses in data.
 const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const VectorX& v,
                     const VectorX& a);
