@@ -40,6 +40,12 @@ int Joint::nv() const {
   return type == JointType::Floating ? 6 : (nq());
 }
 
+Joint Joint::planar(const Vector3& normal) {
+  Joint joint{JointType::Planar, normal.normalized()};
+  planarAxes(joint.axis, joint.plane_x, joint.plane_y);
+  return joint;
+}
+
 void planarAxes(const Vector3& normal, Vector3& e1, Vector3& e2) {
   // the x axis projected on the plane, or y when x is (nearly) the normal itself
   const Vector3 seed = std::abs(normal.x()) < 0.9 ? Vector3::UnitX() : Vector3::UnitY();
@@ -66,8 +72,8 @@ Pose jointTransform(const Joint& joint, const double* q) {
     case JointType::Fixed:
       break;
     case JointType::Planar: {
-      Vector3 e1, e2;
-      planarAxes(joint.axis, e1, e2);
+      const Vector3& e1 = joint.plane_x;
+      const Vector3& e2 = joint.plane_y;
       x.rotation = Eigen::AngleAxisd(q[2], joint.axis).toRotationMatrix();
       x.translation = q[0] * e1 + q[1] * e2;
       break;
@@ -97,8 +103,8 @@ void jointMotion(const Joint& joint, const Pose& xj, const double* v, MotionSubs
       S.dof = 0;
       break;
     case JointType::Planar: {
-      Vector3 e1, e2;
-      planarAxes(joint.axis, e1, e2);
+      const Vector3& e1 = joint.plane_x;
+      const Vector3& e2 = joint.plane_y;
       const Matrix3 rt = xj.rotation.transpose();
       S.dof = 3;
       S.columns.col(0) << Vector3::Zero(), rt * e1;

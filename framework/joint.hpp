@@ -27,6 +27,9 @@ std::string toString(JointType type);
 struct Joint {
   JointType type = JointType::Fixed;
   Vector3 axis = Vector3::UnitZ();  // rotation/translation axis; plane normal for Planar
+  // in-plane axes of a planar joint, fixed once here rather than per kinematic pass
+  Vector3 plane_x = Vector3::UnitX();
+  Vector3 plane_y = Vector3::UnitY();
 
   static Joint revolute(const Vector3& axis) { return {JointType::Revolute, axis.normalized()}; }
   static Joint continuous(const Vector3& axis) {
@@ -34,9 +37,7 @@ struct Joint {
   }
   static Joint prismatic(const Vector3& axis) { return {JointType::Prismatic, axis.normalized()}; }
   static Joint fixed() { return {JointType::Fixed, Vector3::UnitZ()}; }
-  static Joint planar(const Vector3& normal = Vector3::UnitZ()) {
-    return {JointType::Planar, normal.normalized()};
-  }
+  static Joint planar(const Vector3& normal = Vector3::UnitZ());
   static Joint floating() { return {JointType::Floating, Vector3::UnitZ()}; }
 
   int nq() const;

@@ -4,7 +4,6 @@
 #include <map>
 #include <sstream>
 
-#include "framework/crba.hpp"
 #include "framework/data.hpp"
 #include "framework/error.hpp"
 
@@ -75,7 +74,8 @@ int ModelBuilder::addBody(int parent, const std::string& joint_name, const Joint
   b.name = body_name;
   b.joint_name = joint_name;
   b.parent = parent;
-  b.joint = joint;
+  // a planar joint's in-plane axes follow from its normal, however the Joint was assembled
+  b.joint = joint.type == JointType::Planar ? Joint::planar(joint.axis) : joint;
   b.joint_placement = joint_placement;
   b.inertia = inertia;
   bodies_.push_back(b);
@@ -203,8 +203,8 @@ Model ModelBuilder::build() const {
   model.driven_bodies = driven_;
 
   // every degree of freedom must move some inertia, or M is singular in every configuration
+  // Data's constructor has just built every block at the neutral configuration
   Data data(model);
-  crba(model, data, model.neutralConfiguration());
   for (const Component& comp : model.components) {
     if (comp.nv == 0) continue;
     const MatrixX& block = data.mass_blocks[&comp - model.components.data()];
