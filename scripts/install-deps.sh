@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake clang-format
-  libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libsundials-dev libyaml-cpp-dev
+  libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libassimp-dev libsundials-dev libyaml-cpp-dev
   libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib python3-numpy
 )

@@ -1,0 +1,42 @@
+#pragma once
+// One candidate contact at the detection configuration, as the solvers see it.
+#include <cstdint>
+
+#include "contact/contact_model.hpp"
+
+namespace sweep {
+
+// Identity of a contact across steps, for warm starts: the geometry pair (a < b) and the
+// feature of the pair (a vertex or a triangle for shapes that touch at several points, 0
+// for pairs that touch at one).
+struct ContactKey {
+  int geometry_a = 0;
+  int geometry_b = 0;
+  int feature = 0;
+
+  bool operator==(const ContactKey& o) const {
+    return geometry_a == o.geometry_a && geometry_b == o.geometry_b && feature == o.feature;
+  }
+  bool operator<(const ContactKey& o) const {
+    if (geometry_a != o.geometry_a) return geometry_a < o.geometry_a;
+    if (geometry_b != o.geometry_b) return geometry_b < o.geometry_b;
+    return feature < o.feature;
+  }
+};
+
+struct Contact {
+  ContactKey key;
+  BodyRef body_a;
+  BodyRef body_b;
+  double gap = 0.0;                     // signed distance; < 0 when overlapping
+  Vector3 normal = Vector3::UnitZ();    // unit, world, from a towards b
+  Vector3 tangent1 = Vector3::UnitX();  // world, orthonormal to the normal
+  Vector3 tangent2 = Vector3::Zero();   // 3D only; normal x tangent1
+  Vector3 point_a = Vector3::Zero();    // world witness point on a
+  Vector3 point_b = Vector3::Zero();    // world witness point on b: point_a + gap * normal
+  double friction = 0.0;
+  double restitution = 0.0;
+  int previous = -1;  // index of the same contact in the previous detection, or -1
+};
+
+}  // namespace sweep

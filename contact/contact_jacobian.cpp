@@ -1,0 +1,59 @@
+#include "contact/contact_jacobian.hpp"
+
+#include "contact/detection.hpp"
+#include "framework/jacobian.hpp"
+
+namespace sweep {
+
+void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
+                             ContactData& cdata, double t) {
+  ContactJacobian& J = cdata.jacobian;
+  J.dimension = cmodel.dimension;
+  const int n = static_cast<int>(cdata.contacts.size());
+  J.begin.resize(n + 1);
+  J.known_velocity.resize(n);
+  J.dof.clear();
+  J.normal.clear();
+  J.tangent1.clear();
+  J.tangent2.clear();
+
+  for (int c = 0; c < n; ++c) {
+    const Contact& contact = cdata.contacts[c];
+    J.begin[c] = static_cast<int>(J.dof.size());
+    Vector3 known = Vector3::Zero();
+    // U = velocity of b's point minus velocity of a's point, projected on the frame
+    for (int side = 0; side < 2; ++side) {
+      const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
+      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
+      const double sign = side == 0 ? -1.0 : 1.0;
+      if (body.kind == BodyRef::Kind::Dynamic) {
+        forEachPointJacobianColumn(model, data, body.index, point,
+                                   [&](int v_index, const Vector3&, const Vector3& linear) {
+                                     int& slot = cdata.dof_slot[v_index];
+                                     if (slot < 0) {
+                                       slot = static_cast<int>(J.dof.size());
+                                       J.dof.push_back(v_index);
+                                       J.normal.push_back(0.0);
+                                       J.tangent1.push_back(0.0);
+                                       J.tangent2.push_back(0.0);
+                                     }
+                                     J.normal[slot] += sign * contact.normal.dot(linear);
+                                     J.tangent1[slot] += sign * contact.tangent1.dot(linear);
+                                     J.tangent2[slot] += sign * contact.tangent2.dot(linear);
+                                   });
+      } else if (body.kind == BodyRef::Kind::Driven) {
+        const DrivenBody& driven = model.driven_bodies[body.index];
+        const Vector6 twist = driven.twist(t);
+        const Vector3 lever = point - driven.pose(t).translation;
+        const Vector3 velocity = twist.tail<3>() + twist.head<3>().cross(lever);
+        known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
+                                contact.tangent2.dot(velocity));
+      }
+    }
+    for (int k = J.begin[c]; k < static_cast<int>(J.dof.size()); ++k) cdata.dof_slot[J.dof[k]] = -1;
+    J.known_velocity[c] = known;
+  }
+  J.begin[n] = static_cast<int>(J.dof.size());
+}
+
+}  // namespace sweep

@@ -1,0 +1,49 @@
+#pragma once
+// Step 3 (shared part): the rows W_N, W_T of every contact over the generalized velocities v,
+// stored sparse. Row c touches only the dofs that move its two witness points: the dofs of
+// the two bodies and, for links of a tree, of their ancestors.
+//
+//   U_N = W_N^T v + known_velocity.x()   relative normal velocity at the contact
+//   U_T = W_T^T v + known_velocity.(y,z) relative tangential velocities
+//
+// where known_velocity carries the motion of kinematically driven bodies (zero if none).
+#include <vector>
+
+#include "framework/data.hpp"
+
+namespace sweep {
+
+struct Contact;
+struct ContactModel;
+struct ContactData;
+
+struct ContactJacobian {
+  int dimension = 3;                    // 2: one tangent (tangent2 entries are zero and unused)
+  std::vector<int> begin;               // entries of contact c: [begin[c], begin[c + 1])
+  std::vector<int> dof;                 // velocity index of each entry
+  std::vector<double> normal;           // W_N entries
+  std::vector<double> tangent1;         // W_T entries, first tangent
+  std::vector<double> tangent2;         // W_T entries, second tangent (3D)
+  std::vector<Vector3> known_velocity;  // (normal, tangent1, tangent2) relative velocity at v = 0
+
+  int size() const { return static_cast<int>(known_velocity.size()); }
+
+  // relative velocity of contact c in its frame (normal, tangent1, tangent2)
+  Vector3 relativeVelocity(int c, const Eigen::VectorXd& v) const {
+    Vector3 u = known_velocity[c];
+    for (int k = begin[c]; k < begin[c + 1]; ++k) {
+      const double vk = v[dof[k]];
+      u.x() += normal[k] * vk;
+      u.y() += tangent1[k] * vk;
+      u.z() += tangent2[k] * vk;
+    }
+    return u;
+  }
+};
+
+// Needs the kinematics of `data` at the detection configuration; driven bodies move with
+// their velocity at `t`.
+void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
+                             ContactData& cdata, double t);
+
+}  // namespace sweep

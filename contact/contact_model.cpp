@@ -1,0 +1,198 @@
+#include "contact/contact_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "contact/mesh_io.hpp"
+#include "contact/narrowphase_analytic.hpp"
+#include "framework/error.hpp"
+
+namespace sweep {
+
+const char* detectionPathName(DetectionPath path) {
+  return path == DetectionPath::Analytic ? "analytic narrowphase + uniform grid"
+                                         : "FCL (dynamic AABB tree, GJK/EPA)";
+}
+
+void DetectionSettings::validate() const {
+  auto show = [](double x) {
+    std::ostringstream out;
+    out << x;
+    return out.str();
+  };
+  if (!(std::isfinite(speed_factor) && speed_factor >= 0.0))
+    throw InputError("detection.speed_factor must be >= 0, got " + show(speed_factor));
+  if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));
+}
+
+bool ContactModel::mayCollide(const Model& model, int a, int b) const {
+  const Geometry& ga = geometries[a];
+  const Geometry& gb = geometries[b];
+  if (ga.body == gb.body) return false;
+  if (!ga.body.hasDofs() && !gb.body.hasDofs()) return false;
+  if (isUnbounded(ga.shape) && isUnbounded(gb.shape)) return false;
+  if (ga.body.hasDofs() && gb.body.hasDofs() && !settings.self_collision &&
+      model.bodies[ga.body.index].component == model.bodies[gb.body.index].component)
+    return false;
+  return true;
+}
+
+std::string ContactModelBuilder::ownerName(const Geometry& g) const {
+  std::string body;
+  switch (g.body.kind) {
+    case BodyRef::Kind::World:
+      body = "world";
+      break;
+    case BodyRef::Kind::Dynamic:
+      body = "body '" + model_.bodies[g.body.index].name + "'";
+      break;
+    case BodyRef::Kind::Driven:
+      body = "driven body '" + model_.driven_bodies[g.body.index].name + "'";
+      break;
+  }
+  return body + ", shape '" + g.name + "'";
+}
+
+int ContactModelBuilder::addGeometry(const std::string& name, BodyRef body, const Pose& placement,
+                                     const Shape& shape, int material) {
+  const int count = body.kind == BodyRef::Kind::Dynamic
+                        ? static_cast<int>(model_.bodies.size())
+                        : static_cast<int>(model_.driven_bodies.size());
+  if (body.kind != BodyRef::Kind::World && (body.index < 0 || body.index >= count))
+    throw InputError("shape '" + name + "': body index " + std::to_string(body.index) +
+                     " out of range");
+  if (material < 0 || material >= materials_.size())
+    throw InputError("shape '" + name + "': unknown material " + std::to_string(material));
+  if (!placement.translation.allFinite() || !placement.rotation.allFinite())
+    throw InputError("shape '" + name + "': placement is not finite");
+  geometries_.push_back(Geometry{name, body, placement, shape, material});
+  return static_cast<int>(geometries_.size()) - 1;
+}
+
+void ContactModelBuilder::addModelCollisions(int material) {
+  for (std::size_t k = 0; k < model_.collisions.size(); ++k) {
+    const CollisionGeometry& c = model_.collisions[k];
+    const std::string name =
+        c.name.empty() ? model_.bodies[c.body].name + "/collision" + std::to_string(k) : c.name;
+    Shape shape;
+    switch (c.type) {
+      case GeometryType::Sphere:
+        shape = Shape::sphere(c.radius);
+        break;
+      case GeometryType::Box:
+        shape = Shape::box(c.box_size);
+        break;
+      case GeometryType::Cylinder:
+        shape = Shape::cylinder(c.radius, c.length);
+        break;
+      case GeometryType::Capsule:
+        shape = Shape::capsule(c.radius, c.length);
+        break;
+      case GeometryType::Mesh:
+        try {
+          shape = Shape::triangleMesh(loadTriangleMesh(c.mesh_file, c.mesh_scale));
+        } catch (const InputError& e) {
+          throw InputError("body '" + model_.bodies[c.body].name + "', shape '" + name +
+                           "' (mesh): " + e.what());
+        }
+        break;
+    }
+    addGeometry(name, BodyRef::dynamic(c.body), c.placement, shape, material);
+  }
+}
+
+namespace {
+// the size that sets the scale of gaps for a shape: radius, or least half extent
+double characteristicSize(const Shape& s) {
+  switch (s.type) {
+    case ShapeType::Sphere:
+    case ShapeType::Disk:
+    case ShapeType::Capsule:
+    case ShapeType::Cylinder:
+      return s.radius;
+    case ShapeType::Box:
+      return s.half_extents.minCoeff();
+    default:
+      return boundingRadius(s);
+  }
+}
+}  // namespace
+
+ContactModel ContactModelBuilder::build() const {
+  settings_.validate();
+  ContactModel cm;
+  cm.geometries = geometries_;
+  cm.materials = materials_;
+  cm.settings = settings_;
+
+  int planar = 0;
+  for (const Geometry& g : geometries_) {
+    validateShape(g.shape, ownerName(g));
+    planar += isPlanarShape(g.shape.type) ? 1 : 0;
+  }
+  if (planar != 0 && planar != cm.size()) {
+    for (const Geometry& g : geometries_)
+      if (!isPlanarShape(g.shape.type))
+        throw InputError(ownerName(g) +
+                         ": a 3D shape in a scene of 2D shapes (disk, segment, "
+                         "polygon, half-plane); use one kind only");
+  }
+  cm.dimension = planar > 0 ? 2 : 3;
+
+  // the analytic path serves the scene when every pair of shape types that can meet has a
+  // closed form; decided by types, once
+  std::set<ShapeType> moving;
+  std::map<ShapeType, int> all;
+  for (const Geometry& g : geometries_) {
+    ++all[g.shape.type];
+    if (g.body.hasDofs()) moving.insert(g.shape.type);
+  }
+  std::string missing;
+  for (ShapeType m : moving)
+    for (const auto& [a, count] : all)
+      if (missing.empty() && (a != m || count > 1) && !hasAnalyticNarrowphase(m, a))
+        missing = std::string(shapeTypeName(m)) + "-" + shapeTypeName(a);
+  const bool analytic_possible = missing.empty();
+  switch (settings_.path) {
+    case DetectionPathChoice::Automatic:
+      cm.path = analytic_possible ? DetectionPath::Analytic : DetectionPath::Fcl;
+      cm.path_reason = analytic_possible ? "every pair that can meet has a closed form"
+                                         : "the " + missing + " pair has no closed form in Sweep";
+      break;
+    case DetectionPathChoice::Analytic:
+      if (!analytic_possible)
+        throw InputError("detection.path = analytic, but the " + missing +
+                         " pair has no closed form; use automatic or fcl");
+      cm.path = DetectionPath::Analytic;
+      cm.path_reason = "requested";
+      break;
+    case DetectionPathChoice::Fcl:
+      cm.path = DetectionPath::Fcl;
+      cm.path_reason = "requested";
+      break;
+  }
+
+  if (settings_.floor >= 0.0) {
+    cm.margin_floor = settings_.floor;
+  } else {
+    double smallest = std::numeric_limits<double>::infinity();
+    for (const Geometry& g : geometries_)
+      if (g.body.hasDofs() && !isUnbounded(g.shape))
+        smallest = std::min(smallest, characteristicSize(g.shape));
+    cm.margin_floor = std::isfinite(smallest) ? 1e-3 * smallest : 0.0;
+  }
+
+  std::set<int> used;
+  for (const Geometry& g : geometries_) used.insert(g.material);
+  cm.frictionless = true;
+  for (int a : used)
+    for (int b : used)
+      if (materials_.law(a, b).friction > 0.0) cm.frictionless = false;
+  return cm;
+}
+
+}  // namespace sweep

@@ -1,0 +1,98 @@
+#pragma once
+// What never changes during a run on the contact side: the shapes attached to bodies, the
+// materials and their contact laws, and the detection path chosen for the scene.
+#include <string>
+#include <vector>
+
+#include "contact/material.hpp"
+#include "contact/shape.hpp"
+#include "framework/model.hpp"
+
+namespace sweep {
+
+// The frame a shape is attached to: the world, a body of the Model (any joint), or a
+// kinematically driven body (Model::driven_bodies).
+struct BodyRef {
+  enum class Kind { World, Dynamic, Driven };
+  Kind kind = Kind::World;
+  int index = -1;
+
+  static BodyRef world() { return {}; }
+  static BodyRef dynamic(int body) { return {Kind::Dynamic, body}; }
+  static BodyRef driven(int body) { return {Kind::Driven, body}; }
+  bool hasDofs() const { return kind == Kind::Dynamic; }
+  bool operator==(const BodyRef& o) const { return kind == o.kind && index == o.index; }
+};
+
+struct Geometry {
+  std::string name;
+  BodyRef body;
+  Pose placement;  // shape frame in the body frame
+  Shape shape;
+  int material = 0;
+};
+
+// Analytic: closed-form narrowphase for the pairs a scene holds (disk-disk, disk-segment,
+// disk-half-plane, polygon-half-plane; sphere-sphere, sphere-half-space, sphere-box,
+// convex-half-space) and a uniform-grid broadphase. Fcl: FCL's dynamic AABB tree and its
+// narrowphase (GJK/EPA through libccd for general convex pairs, BVH for meshes).
+enum class DetectionPath { Analytic, Fcl };
+enum class DetectionPathChoice { Automatic, Analytic, Fcl };
+
+const char* detectionPathName(DetectionPath path);
+
+struct DetectionSettings {
+  DetectionPathChoice path = DetectionPathChoice::Automatic;
+  // Candidate contacts are pairs with gap below the margin
+  //   margin = speed_factor * h * (largest speed of a shape point) + floor,
+  // so that every contact that can close during the step is in the solve.
+  double speed_factor = 2.0;
+  // < 0: automatic, 1e-3 times the smallest size (radius or half extent) of a moving shape
+  double floor = -1.0;
+  // pairs of bodies in the same articulated component (self-collision of a robot)
+  bool self_collision = false;
+
+  void validate() const;  // InputError on negative or non-finite values
+};
+
+struct ContactModel {
+  std::vector<Geometry> geometries;
+  MaterialTable materials;
+  DetectionSettings settings;
+  int dimension = 3;  // 2 when every shape is planar: one tangent per contact
+  DetectionPath path = DetectionPath::Fcl;
+  std::string path_reason;  // one line for the run log: why this path was chosen
+  double margin_floor = 0.0;
+  bool frictionless = true;  // every law that can apply has mu = 0
+
+  int size() const { return static_cast<int>(geometries.size()); }
+  // whether geometries a and b are tested at all (moving, not the same body, not filtered)
+  bool mayCollide(const Model& model, int a, int b) const;
+};
+
+class ContactModelBuilder {
+ public:
+  explicit ContactModelBuilder(const Model& model) : model_(model) {}
+
+  MaterialTable& materials() { return materials_; }
+  void setSettings(const DetectionSettings& settings) { settings_ = settings; }
+
+  int addGeometry(const std::string& name, BodyRef body, const Pose& placement, const Shape& shape,
+                  int material = 0);
+  // Turns Model::collisions (URDF collision elements) into geometries; meshes are read from
+  // their files (triangle meshes).
+  void addModelCollisions(int material = 0);
+
+  // Validates every shape (InputError naming body and shape) and picks the detection path.
+  ContactModel build() const;
+
+ private:
+  std::string ownerName(const Geometry& g) const;
+
+  const Model& model_;
+  MaterialTable materials_;
+  DetectionSettings settings_;
+  std::vector<Geometry> geometries_;
+};
+
+}  // namespace sweep

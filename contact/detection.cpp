@@ -1,0 +1,277 @@
+#include "contact/detection.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "contact/fcl_scene.hpp"
+#include "contact/narrowphase_analytic.hpp"
+
+namespace sweep {
+
+namespace {
+
+bool isBall(ShapeType t) {
+  return t == ShapeType::Sphere || t == ShapeType::Disk;
+}
+
+// Balls of the grid path: bounded, on a moving body, and not much larger than the typical
+// ball, so that the cell size stays near one grain diameter.
+void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
+  std::vector<double> radii;
+  for (const Geometry& g : cmodel.geometries)
+    if (isBall(g.shape.type) && g.body.hasDofs()) radii.push_back(g.shape.radius);
+  double median = 0.0;
+  if (!radii.empty()) {
+    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+    median = radii[radii.size() / 2];
+  }
+  for (int i = 0; i < cmodel.size(); ++i) {
+    const Geometry& g = cmodel.geometries[i];
+    const bool particle =
+        isBall(g.shape.type) && g.body.hasDofs() && g.shape.radius <= 4.0 * median;
+    (particle ? cdata.particles : cdata.large).push_back(i);
+  }
+}
+
+}  // namespace
+
+ContactData::ContactData(const Model& model, const ContactModel& cmodel)
+    : geometry_pose(cmodel.size()), dof_slot(model.nv, -1) {
+  jacobian.dimension = cmodel.dimension;
+  if (cmodel.path == DetectionPath::Fcl) {
+    fcl = std::make_unique<FclScene>(cmodel);
+  } else {
+    classifyForGrid(cmodel, *this);
+    particle_center.resize(particles.size());
+    particle_radius.resize(particles.size());
+    for (std::size_t k = 0; k < particles.size(); ++k)
+      particle_radius[k] = cmodel.geometries[particles[k]].shape.radius;
+  }
+}
+
+ContactData::~ContactData() = default;
+ContactData::ContactData(ContactData&&) noexcept = default;
+
+void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
+                         ContactData& cdata) {
+  for (int i = 0; i < cmodel.size(); ++i) {
+    const Geometry& g = cmodel.geometries[i];
+    switch (g.body.kind) {
+      case BodyRef::Kind::World:
+        cdata.geometry_pose[i] = g.placement;
+        break;
+      case BodyRef::Kind::Dynamic:
+        cdata.geometry_pose[i] = data.world_pose[g.body.index] * g.placement;
+        break;
+      case BodyRef::Kind::Driven:
+        cdata.geometry_pose[i] = model.driven_bodies[g.body.index].pose(t) * g.placement;
+        break;
+    }
+  }
+}
+
+double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
+                       double t) {
+  double fastest = 0.0;
+  for (const Geometry& g : cmodel.geometries) {
+    Vector6 twist = Vector6::Zero();
+    if (g.body.kind == BodyRef::Kind::Dynamic) twist = data.velocity[g.body.index];
+    if (g.body.kind == BodyRef::Kind::Driven) twist = model.driven_bodies[g.body.index].twist(t);
+    // |v_origin| + |w| * (distance of any shape point from the body origin)
+    const double reach =
+        isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
+    fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
+  }
+  return cmodel.settings.speed_factor * h * fastest + cmodel.margin_floor;
+}
+
+namespace {
+
+Vector3 outwardNormal(const Shape& s, const Pose& pose) {
+  return s.type == ShapeType::HalfSpace ? Vector3(pose.rotation.col(2))
+                                        : Vector3(pose.rotation.col(1));
+}
+
+// The closed forms take the pair in one order (container first, ball second); `flipped`
+// says the geometries came the other way round.
+void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& pb, double margin,
+                  std::vector<ContactPoint>& out) {
+  const std::size_t first = out.size();
+  const bool flipped = isUnbounded(sb) || (isBall(sa.type) && !isBall(sb.type));
+  const Shape& s1 = flipped ? sb : sa;
+  const Shape& s2 = flipped ? sa : sb;
+  const Pose& p1 = flipped ? pb : pa;
+  const Pose& p2 = flipped ? pa : pb;
+  switch (s1.type) {
+    case ShapeType::HalfSpace:
+    case ShapeType::HalfPlane:
+      halfSpaceShape(p1.translation, outwardNormal(s1, p1), s2, p2, margin,
+                     [&](const ContactPoint& c) { out.push_back(c); });
+      break;
+    case ShapeType::Sphere:
+    case ShapeType::Disk:
+      out.push_back(ballBall(p1.translation, s1.radius, p2.translation, s2.radius));
+      break;
+    case ShapeType::Segment:
+      out.push_back(segmentBall(p1.apply(s1.segment_start), p1.apply(s1.segment_end), s1.radius,
+                                p2.translation, s2.radius));
+      break;
+    case ShapeType::Box:
+      out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
+      break;
+    default:
+      break;
+  }
+  if (!flipped) return;
+  for (std::size_t k = first; k < out.size(); ++k) {
+    out[k].normal = -out[k].normal;
+    std::swap(out[k].point_a, out[k].point_b);
+  }
+}
+
+void setFrame(Contact& c, int dimension, const Contact* previous) {
+  if (dimension == 2) {
+    c.tangent1 = Vector3(-c.normal.y(), c.normal.x(), 0.0);
+    c.tangent2.setZero();
+    return;
+  }
+  // carry the previous tangent along: a persistent contact keeps its frame
+  if (previous != nullptr) {
+    const Vector3 t = previous->tangent1 - c.normal * c.normal.dot(previous->tangent1);
+    if (t.norm() > 1e-3) {
+      c.tangent1 = t.normalized();
+      c.tangent2 = c.normal.cross(c.tangent1);
+      return;
+    }
+  }
+  int axis = 0;
+  c.normal.cwiseAbs().minCoeff(&axis);
+  const Vector3 e = Vector3::Unit(axis);
+  c.tangent1 = (e - c.normal * c.normal.dot(e)).normalized();
+  c.tangent2 = c.normal.cross(c.tangent1);
+}
+
+void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData& cdata,
+                    double margin) {
+  const int n = static_cast<int>(cdata.particles.size());
+  double largest = 0.0;
+  for (int k = 0; k < n; ++k) {
+    cdata.particle_center[k] = cdata.geometry_pose[cdata.particles[k]].translation;
+    largest = std::max(largest, cdata.particle_radius[k]);
+  }
+  cdata.grid.build(cdata.particle_center, 2.0 * largest + margin, cmodel.dimension);
+  const std::size_t first = cdata.pairs.size();
+  cdata.grid.findPairs(
+      cdata.particle_center,
+      [&](int i, int j) { return cdata.particle_radius[i] + cdata.particle_radius[j] + margin; },
+      cdata.pairs);
+  for (std::size_t k = first; k < cdata.pairs.size(); ++k) {
+    auto& [i, j] = cdata.pairs[k];
+    i = cdata.particles[i];
+    j = cdata.particles[j];
+    if (i > j) std::swap(i, j);
+  }
+  // walls, blades, planes: against the particles their box can reach, and each other
+  for (std::size_t l = 0; l < cdata.large.size(); ++l) {
+    const int g = cdata.large[l];
+    const Shape& shape = cmodel.geometries[g].shape;
+    auto add = [&](int k) {
+      const int p = cdata.particles[k];
+      cdata.pairs.emplace_back(std::min(g, p), std::max(g, p));
+    };
+    if (isUnbounded(shape)) {
+      for (int k = 0; k < n; ++k) add(k);
+    } else {
+      const Vector3 center = cdata.geometry_pose[g].translation;
+      const Vector3 half = Vector3::Constant(boundingRadius(shape) + largest + margin);
+      cdata.grid.query(center - half, center + half, add);
+    }
+    for (std::size_t m = l + 1; m < cdata.large.size(); ++m) {
+      const int other = cdata.large[m];
+      if (cmodel.mayCollide(model, g, other)) cdata.pairs.emplace_back(g, other);
+    }
+  }
+}
+
+void broadphaseFcl(const Model& model, const ContactModel& cmodel, ContactData& cdata,
+                   double margin) {
+  cdata.fcl->update(cdata.geometry_pose, margin);
+  cdata.fcl->findPairs(cdata.pairs);
+  // FCL holds no half-spaces: they meet every geometry
+  for (int h = 0; h < cmodel.size(); ++h) {
+    if (cdata.fcl->has(h)) continue;
+    for (int g = 0; g < cmodel.size(); ++g)
+      if (g != h && cmodel.mayCollide(model, g, h))
+        cdata.pairs.emplace_back(std::min(g, h), std::max(g, h));
+  }
+}
+
+}  // namespace
+
+void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
+                    ContactData& cdata, double t, double margin) {
+  std::swap(cdata.contacts, cdata.previous);
+  cdata.contacts.clear();
+  cdata.pairs.clear();
+  updateGeometryPoses(model, data, cmodel, t, cdata);
+
+  // broadphase
+  if (cmodel.path == DetectionPath::Analytic)
+    broadphaseGrid(model, cmodel, cdata, margin);
+  else
+    broadphaseFcl(model, cmodel, cdata, margin);
+  std::sort(cdata.pairs.begin(), cdata.pairs.end());
+  cdata.stats = DetectionStats{};
+
+  // narrowphase
+  for (const auto& [a, b] : cdata.pairs) {
+    if (!cmodel.mayCollide(model, a, b)) continue;
+    ++cdata.stats.broadphase_pairs;
+    const Geometry& ga = cmodel.geometries[a];
+    const Geometry& gb = cmodel.geometries[b];
+    cdata.points.clear();
+    const bool half_space = isUnbounded(ga.shape) || isUnbounded(gb.shape);
+    if (cmodel.path == DetectionPath::Analytic || half_space)
+      analyticPair(ga.shape, cdata.geometry_pose[a], gb.shape, cdata.geometry_pose[b], margin,
+                   cdata.points);
+    else
+      cdata.fcl->narrowphase(a, b, margin, cdata.points);
+    const ContactLaw& law = cmodel.materials.law(ga.material, gb.material);
+    for (const ContactPoint& p : cdata.points) {
+      if (!(p.gap < margin)) continue;
+      Contact c;
+      c.key = ContactKey{a, b, p.feature};
+      c.body_a = ga.body;
+      c.body_b = gb.body;
+      c.gap = p.gap;
+      c.normal = p.normal;
+      c.point_a = p.point_a;
+      c.point_b = p.point_b;
+      if (cmodel.dimension == 2) {
+        // FCL's prisms may report witness points off the scene plane
+        c.normal.z() = 0.0;
+        c.normal.normalize();
+        c.point_a.z() = cdata.geometry_pose[a].translation.z();
+        c.point_b.z() = cdata.geometry_pose[b].translation.z();
+      }
+      c.friction = law.friction;
+      c.restitution = law.restitution;
+      cdata.contacts.push_back(c);
+    }
+  }
+  std::sort(cdata.contacts.begin(), cdata.contacts.end(),
+            [](const Contact& x, const Contact& y) { return x.key < y.key; });
+
+  // identity across steps (both lists sorted by key) and frames
+  std::size_t p = 0;
+  for (Contact& c : cdata.contacts) {
+    while (p < cdata.previous.size() && cdata.previous[p].key < c.key) ++p;
+    const bool matched = p < cdata.previous.size() && cdata.previous[p].key == c.key;
+    c.previous = matched ? static_cast<int>(p) : -1;
+    cdata.stats.matched += matched ? 1 : 0;
+    setFrame(c, cmodel.dimension, matched ? &cdata.previous[p] : nullptr);
+  }
+  cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
+}
+
+}  // namespace sweep

@@ -1,0 +1,67 @@
+#pragma once
+// Step 2 of both schemes: candidate contacts at the detection configuration.
+//
+//   forwardKinematics(model, data, q_m);
+//   const double margin = detectionMargin(model, data, cmodel, cdata, v, h, t_m);
+//   detectContacts(model, data, cmodel, cdata, t_m, margin);   // cdata.contacts
+//   assembleContactJacobian(model, data, cmodel, cdata, t);    // cdata.jacobian
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "contact/contact.hpp"
+#include "contact/contact_jacobian.hpp"
+#include "contact/grid_broadphase.hpp"
+#include "contact/narrowphase_analytic.hpp"
+#include "framework/data.hpp"
+
+namespace sweep {
+
+class FclScene;
+
+struct DetectionStats {
+  int broadphase_pairs = 0;  // pairs handed to the narrowphase
+  int candidates = 0;        // contacts with gap below the margin
+  int matched = 0;           // of which were already in contact at the previous detection
+};
+
+// Everything detection and assembly write, sized from the models; reused from step to step.
+struct ContactData {
+  ContactData(const Model& model, const ContactModel& cmodel);
+  ~ContactData();
+  ContactData(ContactData&&) noexcept;
+
+  std::vector<Pose> geometry_pose;  // world pose of each geometry
+  std::vector<Contact> contacts;    // sorted by key
+  std::vector<Contact> previous;    // the contacts of the previous detection
+  ContactJacobian jacobian;
+  DetectionStats stats;
+
+  // workspaces
+  std::vector<std::pair<int, int>> pairs;
+  std::vector<ContactPoint> points;
+  std::vector<int> particles;  // grid path: geometries binned in the grid
+  std::vector<int> large;      // grid path: every other geometry
+  std::vector<Vector3> particle_center;
+  std::vector<double> particle_radius;
+  GridBroadphase grid;
+  std::unique_ptr<FclScene> fcl;
+  std::vector<int> dof_slot;  // Jacobian assembly: entry of each dof in the current row, or -1
+};
+
+// World poses of every geometry: bodies from data (after forwardKinematics), driven bodies
+// at time t.
+void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
+                         ContactData& cdata);
+
+// margin = speed_factor * h * (largest speed of a shape point at (q, v) and t) + floor.
+// Needs forwardKinematics(model, data, q, v).
+double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
+                       double t);
+
+// Fills cdata.contacts with every pair of geometries closer than `margin`, sorted by key,
+// with frames and contact laws, each matched to the previous detection's contacts.
+void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
+                    ContactData& cdata, double t, double margin);
+
+}  // namespace sweep

@@ -1,0 +1,69 @@
+#include "contact/material.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+MaterialTable::MaterialTable() : names_{"default"}, pair_law_{-1} {}
+
+int MaterialTable::add(const std::string& name) {
+  for (const std::string& existing : names_)
+    if (existing == name) throw InputError("material '" + name + "' is defined twice");
+  const int n = size();
+  std::vector<int> grown((n + 1) * (n + 1), -1);
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) grown[a * (n + 1) + b] = pair_law_[a * n + b];
+  pair_law_ = std::move(grown);
+  names_.push_back(name);
+  return n;
+}
+
+int MaterialTable::id(const std::string& name) const {
+  for (int i = 0; i < size(); ++i)
+    if (names_[i] == name) return i;
+  throw InputError("unknown material '" + name + "'");
+}
+
+void MaterialTable::setDefaultLaw(const ContactLaw& law) {
+  validateContactLaw(law, "default contact law");
+  default_law_ = law;
+}
+
+void MaterialTable::setLaw(int a, int b, const ContactLaw& law) {
+  if (a < 0 || b < 0 || a >= size() || b >= size())
+    throw InputError("contact law between materials " + std::to_string(a) + " and " +
+                     std::to_string(b) + ": no such material");
+  validateContactLaw(law, "contact law '" + names_[a] + "'-'" + names_[b] + "'");
+  const int n = size();
+  laws_.push_back(law);
+  pair_law_[a * n + b] = pair_law_[b * n + a] = static_cast<int>(laws_.size()) - 1;
+}
+
+const ContactLaw& MaterialTable::law(int a, int b) const {
+  const int index = pair_law_[a * size() + b];
+  return index < 0 ? default_law_ : laws_[index];
+}
+
+bool MaterialTable::frictionless() const {
+  for (int a = 0; a < size(); ++a)
+    for (int b = a; b < size(); ++b)
+      if (law(a, b).friction > 0.0) return false;
+  return true;
+}
+
+void validateContactLaw(const ContactLaw& law, const std::string& owner) {
+  auto show = [](double x) {
+    std::ostringstream out;
+    out << x;
+    return out.str();
+  };
+  if (!(std::isfinite(law.friction) && law.friction >= 0.0))
+    throw InputError(owner + ": friction must be >= 0, got " + show(law.friction));
+  if (!(std::isfinite(law.restitution) && law.restitution >= 0.0 && law.restitution <= 1.0))
+    throw InputError(owner + ": restitution must be in [0, 1], got " + show(law.restitution));
+}
+
+}  // namespace sweep

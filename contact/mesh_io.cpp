@@ -1,0 +1,49 @@
+#include "contact/mesh_io.hpp"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <assimp/Importer.hpp>
+#include <filesystem>
+#include <functional>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Vector3& scale) {
+  if (!std::filesystem::is_regular_file(path)) throw InputError(path + ": mesh file not found");
+  Assimp::Importer importer;
+  // identical vertices are merged so that edge sharing (manifold checks) can be seen
+  const aiScene* scene = importer.ReadFile(
+      path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
+  if (scene == nullptr) throw InputError(path + ": cannot read mesh: " + importer.GetErrorString());
+
+  auto mesh = std::make_shared<TriangleMesh>();
+  // node transforms place sub-meshes (COLLADA); STL has one identity node
+  std::function<void(const aiNode*, const aiMatrix4x4&)> visit = [&](const aiNode* node,
+                                                                     const aiMatrix4x4& parent) {
+    const aiMatrix4x4 transform = parent * node->mTransformation;
+    for (unsigned m = 0; m < node->mNumMeshes; ++m) {
+      const aiMesh* part = scene->mMeshes[node->mMeshes[m]];
+      const int offset = static_cast<int>(mesh->vertices.size());
+      for (unsigned i = 0; i < part->mNumVertices; ++i) {
+        const aiVector3D p = transform * part->mVertices[i];
+        mesh->vertices.emplace_back(scale.x() * p.x, scale.y() * p.y, scale.z() * p.z);
+      }
+      for (unsigned f = 0; f < part->mNumFaces; ++f) {
+        const aiFace& face = part->mFaces[f];
+        if (face.mNumIndices != 3) continue;  // points and lines carry no surface
+        mesh->triangles.push_back({offset + static_cast<int>(face.mIndices[0]),
+                                   offset + static_cast<int>(face.mIndices[1]),
+                                   offset + static_cast<int>(face.mIndices[2])});
+      }
+    }
+    for (unsigned c = 0; c < node->mNumChildren; ++c) visit(node->mChildren[c], transform);
+  };
+  visit(scene->mRootNode, aiMatrix4x4());
+  if (mesh->triangles.empty()) throw InputError(path + ": mesh has no triangles");
+  return mesh;
+}
+
+}  // namespace sweep

@@ -1,0 +1,46 @@
+#pragma once
+// Closed-form narrowphase for the pairs of particle scenes. Every function returns the gap,
+// the unit normal from the first shape to the second and the witness points, in world frame,
+// whether the shapes are separated, touching or overlapping.
+#include "contact/shape.hpp"
+
+namespace sweep {
+
+struct ContactPoint {
+  double gap = 0.0;
+  Vector3 normal = Vector3::UnitZ();
+  Vector3 point_a = Vector3::Zero();
+  Vector3 point_b = Vector3::Zero();
+  int feature = 0;
+};
+
+// whether the analytic narrowphase handles this pair of shape types (in either order)
+bool hasAnalyticNarrowphase(ShapeType a, ShapeType b);
+
+// Ball (sphere, or disk in its plane) against ball. Coincident centres get normal +x.
+ContactPoint ballBall(const Vector3& center_a, double radius_a, const Vector3& center_b,
+                      double radius_b);
+
+// Rounded segment [start, end] against ball.
+ContactPoint segmentBall(const Vector3& start, const Vector3& end, double rounding,
+                         const Vector3& center, double radius);
+
+// Half-space {x : (x - origin) . outward <= 0} against ball.
+ContactPoint halfSpaceBall(const Vector3& origin, const Vector3& outward, const Vector3& center,
+                           double radius);
+
+// Box (pose, half extents) against ball. A centre inside the box is pushed out through the
+// nearest face.
+ContactPoint boxBall(const Pose& box_pose, const Vector3& half_extents, const Vector3& center,
+                     double radius);
+
+// Half-space against a convex shape or triangle mesh at `pose`: one contact point per vertex
+// (box, polygon, mesh), per end (segment, capsule: rounded ends) or per cap rim (cylinder)
+// whose gap is below `margin`, feature = that vertex or end. Calls emit(ContactPoint).
+template <class Emit>
+void halfSpaceShape(const Vector3& origin, const Vector3& outward, const Shape& shape,
+                    const Pose& pose, double margin, Emit&& emit);
+
+}  // namespace sweep
+
+#include "contact/narrowphase_analytic_inl.hpp"

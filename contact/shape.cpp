@@ -1,0 +1,312 @@
+#include "contact/shape.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+const char* shapeTypeName(ShapeType type) {
+  switch (type) {
+    case ShapeType::Sphere:
+      return "sphere";
+    case ShapeType::Box:
+      return "box";
+    case ShapeType::Cylinder:
+      return "cylinder";
+    case ShapeType::Capsule:
+      return "capsule";
+    case ShapeType::ConvexMesh:
+      return "convex mesh";
+    case ShapeType::TriangleMesh:
+      return "triangle mesh";
+    case ShapeType::HalfSpace:
+      return "half-space";
+    case ShapeType::Disk:
+      return "disk";
+    case ShapeType::Segment:
+      return "segment";
+    case ShapeType::Polygon:
+      return "polygon";
+    case ShapeType::HalfPlane:
+      return "half-plane";
+  }
+  return "unknown";
+}
+
+bool isPlanarShape(ShapeType type) {
+  return type == ShapeType::Disk || type == ShapeType::Segment || type == ShapeType::Polygon ||
+         type == ShapeType::HalfPlane;
+}
+
+Shape Shape::sphere(double radius) {
+  Shape s;
+  s.type = ShapeType::Sphere;
+  s.radius = radius;
+  return s;
+}
+Shape Shape::box(const Vector3& size) {
+  Shape s;
+  s.type = ShapeType::Box;
+  s.half_extents = 0.5 * size;
+  return s;
+}
+Shape Shape::cylinder(double radius, double length) {
+  Shape s;
+  s.type = ShapeType::Cylinder;
+  s.radius = radius;
+  s.length = length;
+  return s;
+}
+Shape Shape::capsule(double radius, double length) {
+  Shape s = cylinder(radius, length);
+  s.type = ShapeType::Capsule;
+  return s;
+}
+Shape Shape::convexMesh(std::shared_ptr<const TriangleMesh> mesh) {
+  Shape s;
+  s.type = ShapeType::ConvexMesh;
+  if (mesh) s.vertices = mesh->vertices;
+  s.mesh = std::move(mesh);
+  return s;
+}
+Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {
+  Shape s;
+  s.type = ShapeType::TriangleMesh;
+  if (mesh) s.vertices = mesh->vertices;
+  s.mesh = std::move(mesh);
+  return s;
+}
+Shape Shape::halfSpace() {
+  Shape s;
+  s.type = ShapeType::HalfSpace;
+  return s;
+}
+Shape Shape::disk(double radius) {
+  Shape s = sphere(radius);
+  s.type = ShapeType::Disk;
+  return s;
+}
+Shape Shape::segment(const Vector2& start, const Vector2& end, double rounding) {
+  Shape s;
+  s.type = ShapeType::Segment;
+  s.segment_start = Vector3(start.x(), start.y(), 0.0);
+  s.segment_end = Vector3(end.x(), end.y(), 0.0);
+  s.radius = rounding;
+  return s;
+}
+Shape Shape::polygon(const std::vector<Vector2>& counter_clockwise_vertices) {
+  Shape s;
+  s.type = ShapeType::Polygon;
+  for (const Vector2& p : counter_clockwise_vertices) s.vertices.emplace_back(p.x(), p.y(), 0.0);
+  return s;
+}
+Shape Shape::halfPlane() {
+  Shape s;
+  s.type = ShapeType::HalfPlane;
+  return s;
+}
+
+namespace {
+
+[[noreturn]] void reject(const std::string& owner, const Shape& shape, const std::string& what) {
+  throw InputError(owner + " (" + shapeTypeName(shape.type) + "): " + what);
+}
+
+std::string show(double value) {
+  std::ostringstream out;
+  out.precision(9);
+  out << value;
+  return out.str();
+}
+
+void requirePositive(const std::string& owner, const Shape& shape, const char* field,
+                     double value) {
+  if (!(std::isfinite(value) && value > 0.0))
+    reject(owner, shape, std::string(field) + " must be > 0 and finite, got " + show(value));
+}
+
+void validateMesh(const std::string& owner, const Shape& shape, bool closed) {
+  if (!shape.mesh || shape.mesh->vertices.empty() || shape.mesh->triangles.empty())
+    reject(owner, shape, "mesh is empty");
+  const TriangleMesh& mesh = *shape.mesh;
+  const int n = static_cast<int>(mesh.vertices.size());
+  for (int i = 0; i < n; ++i)
+    if (!mesh.vertices[i].allFinite())
+      reject(owner, shape, "vertex " + std::to_string(i) + " is not finite");
+  // an edge shared by more than two triangles has no inside and outside
+  std::map<std::pair<int, int>, int> edge_use;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      if (tri[k] < 0 || tri[k] >= n)
+        reject(owner, shape,
+               "triangle " + std::to_string(t) + " uses vertex " + std::to_string(tri[k]) + " of " +
+                   std::to_string(n));
+      const int a = tri[k], b = tri[(k + 1) % 3];
+      if (a == b)
+        reject(owner, shape,
+               "triangle " + std::to_string(t) + " repeats vertex " + std::to_string(a));
+      ++edge_use[{std::min(a, b), std::max(a, b)}];
+    }
+  }
+  for (const auto& [edge, count] : edge_use) {
+    if (count > 2)
+      reject(owner, shape,
+             "non-manifold mesh: edge (" + std::to_string(edge.first) + ", " +
+                 std::to_string(edge.second) + ") is shared by " + std::to_string(count) +
+                 " triangles");
+    if (closed && count != 2)
+      reject(owner, shape,
+             "convex mesh is not closed: edge (" + std::to_string(edge.first) + ", " +
+                 std::to_string(edge.second) + ") borders one triangle");
+  }
+}
+
+}  // namespace
+
+void validateShape(const Shape& shape, const std::string& owner) {
+  switch (shape.type) {
+    case ShapeType::Sphere:
+    case ShapeType::Disk:
+      requirePositive(owner, shape, "radius", shape.radius);
+      break;
+    case ShapeType::Box:
+      for (int k = 0; k < 3; ++k)
+        requirePositive(owner, shape, k == 0 ? "size.x" : (k == 1 ? "size.y" : "size.z"),
+                        2.0 * shape.half_extents[k]);
+      break;
+    case ShapeType::Cylinder:
+    case ShapeType::Capsule:
+      requirePositive(owner, shape, "radius", shape.radius);
+      if (shape.type == ShapeType::Cylinder || shape.length != 0.0)
+        requirePositive(owner, shape, "length", shape.length);
+      break;
+    case ShapeType::ConvexMesh:
+      validateMesh(owner, shape, true);
+      break;
+    case ShapeType::TriangleMesh:
+      validateMesh(owner, shape, false);
+      break;
+    case ShapeType::Segment: {
+      if (!shape.segment_start.allFinite() || !shape.segment_end.allFinite())
+        reject(owner, shape, "end points must be finite");
+      const double length = (shape.segment_end - shape.segment_start).norm();
+      requirePositive(owner, shape, "length", length);
+      if (!(std::isfinite(shape.radius) && shape.radius >= 0.0))
+        reject(owner, shape, "rounding radius must be >= 0, got " + show(shape.radius));
+      break;
+    }
+    case ShapeType::Polygon: {
+      const std::size_t n = shape.vertices.size();
+      if (n < 3) reject(owner, shape, "needs at least 3 vertices, got " + std::to_string(n));
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!shape.vertices[i].allFinite())
+          reject(owner, shape, "vertex " + std::to_string(i) + " is not finite");
+        const Vector3 e0 = shape.vertices[(i + 1) % n] - shape.vertices[i];
+        const Vector3 e1 = shape.vertices[(i + 2) % n] - shape.vertices[(i + 1) % n];
+        const double turn = e0.x() * e1.y() - e0.y() * e1.x();
+        if (!(turn > 0.0))
+          reject(owner, shape,
+                 "vertices must form a convex polygon in counter-clockwise order; the turn at "
+                 "vertex " +
+                     std::to_string((i + 1) % n) + " is " + show(turn));
+      }
+      break;
+    }
+    case ShapeType::HalfSpace:
+    case ShapeType::HalfPlane:
+      break;
+  }
+}
+
+bool isUnbounded(const Shape& shape) {
+  return shape.type == ShapeType::HalfSpace || shape.type == ShapeType::HalfPlane;
+}
+
+double boundingRadius(const Shape& shape) {
+  switch (shape.type) {
+    case ShapeType::Sphere:
+    case ShapeType::Disk:
+      return shape.radius;
+    case ShapeType::Box:
+      return shape.half_extents.norm();
+    case ShapeType::Cylinder:
+      return std::hypot(shape.radius, 0.5 * shape.length);
+    case ShapeType::Capsule:
+      return shape.radius + 0.5 * shape.length;
+    case ShapeType::Segment:
+      return shape.radius + std::max(shape.segment_start.norm(), shape.segment_end.norm());
+    case ShapeType::ConvexMesh:
+    case ShapeType::TriangleMesh:
+    case ShapeType::Polygon: {
+      double r = 0.0;
+      for (const Vector3& p : shape.vertices) r = std::max(r, p.norm());
+      return r;
+    }
+    case ShapeType::HalfSpace:
+    case ShapeType::HalfPlane:
+      return std::numeric_limits<double>::infinity();
+  }
+  return 0.0;
+}
+
+namespace {
+Vector3 unitOr(const Vector3& d, const Vector3& fallback) {
+  const double n = d.norm();
+  return n > 0.0 ? Vector3(d / n) : fallback;
+}
+double signOf(double x) {
+  return x < 0.0 ? -1.0 : 1.0;
+}
+}  // namespace
+
+Vector3 supportPoint(const Shape& shape, const Vector3& direction) {
+  switch (shape.type) {
+    case ShapeType::Sphere:
+      return shape.radius * unitOr(direction, Vector3::UnitX());
+    case ShapeType::Disk:
+      return shape.radius * unitOr(Vector3(direction.x(), direction.y(), 0.0), Vector3::UnitX());
+    case ShapeType::Box:
+      return Vector3(signOf(direction.x()) * shape.half_extents.x(),
+                     signOf(direction.y()) * shape.half_extents.y(),
+                     signOf(direction.z()) * shape.half_extents.z());
+    case ShapeType::Cylinder:
+      return shape.radius * unitOr(Vector3(direction.x(), direction.y(), 0.0), Vector3::UnitX()) +
+             Vector3(0, 0, signOf(direction.z()) * 0.5 * shape.length);
+    case ShapeType::Capsule:
+      return shape.radius * unitOr(direction, Vector3::UnitX()) +
+             Vector3(0, 0, signOf(direction.z()) * 0.5 * shape.length);
+    case ShapeType::Segment: {
+      const Vector3& end = direction.dot(shape.segment_end - shape.segment_start) > 0.0
+                               ? shape.segment_end
+                               : shape.segment_start;
+      return end +
+             shape.radius * unitOr(Vector3(direction.x(), direction.y(), 0.0), Vector3::UnitX());
+    }
+    case ShapeType::Polygon:
+    case ShapeType::ConvexMesh:
+    case ShapeType::TriangleMesh: {
+      Vector3 best = shape.vertices.front();
+      double best_dot = best.dot(direction);
+      for (const Vector3& p : shape.vertices) {
+        const double d = p.dot(direction);
+        if (d > best_dot) {
+          best_dot = d;
+          best = p;
+        }
+      }
+      return best;
+    }
+    case ShapeType::HalfSpace:
+    case ShapeType::HalfPlane:
+      break;
+  }
+  throw std::logic_error("supportPoint: unbounded shape");
+}
+
+}  // namespace sweep

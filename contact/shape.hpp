@@ -1,0 +1,76 @@
+#pragma once
+// Collision shapes, each in its own local frame. 3D shapes follow FCL's conventions (box
+// centred, cylinder and capsule along local z); 2D shapes live in the local xy plane of a
+// planar body, whose z axis is the scene normal.
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "framework/spatial.hpp"
+
+namespace sweep {
+
+using Vector2 = Eigen::Vector2d;
+
+enum class ShapeType {
+  // 3D
+  Sphere,
+  Box,
+  Cylinder,
+  Capsule,
+  ConvexMesh,
+  TriangleMesh,
+  HalfSpace,  // solid z <= 0, outward normal +z
+  // 2D, in the xy plane
+  Disk,
+  Segment,    // from segment_start to segment_end, rounded by `radius` (may be 0)
+  Polygon,    // convex, counter-clockwise vertices
+  HalfPlane,  // solid y <= 0, outward normal +y
+};
+
+const char* shapeTypeName(ShapeType type);
+bool isPlanarShape(ShapeType type);
+
+struct TriangleMesh {
+  std::vector<Vector3> vertices;
+  std::vector<std::array<int, 3>> triangles;
+};
+
+struct Shape {
+  ShapeType type = ShapeType::Sphere;
+  double radius = 0.0;
+  double length = 0.0;                     // cylinder, capsule
+  Vector3 half_extents = Vector3::Zero();  // box
+  Vector3 segment_start = Vector3::Zero();
+  Vector3 segment_end = Vector3::Zero();
+  std::vector<Vector3> vertices;             // polygon (z = 0) and convex mesh
+  std::shared_ptr<const TriangleMesh> mesh;  // convex and triangle meshes
+
+  static Shape sphere(double radius);
+  static Shape box(const Vector3& size);  // full edge lengths
+  static Shape cylinder(double radius, double length);
+  static Shape capsule(double radius, double length);
+  static Shape convexMesh(std::shared_ptr<const TriangleMesh> mesh);
+  static Shape triangleMesh(std::shared_ptr<const TriangleMesh> mesh);
+  static Shape halfSpace();
+  static Shape disk(double radius);
+  static Shape segment(const Vector2& start, const Vector2& end, double rounding = 0.0);
+  static Shape polygon(const std::vector<Vector2>& counter_clockwise_vertices);
+  static Shape halfPlane();
+};
+
+// Throws InputError naming `owner` (e.g. "body 'wheel', shape 'rim'") when the shape cannot be
+// used: non-positive or non-finite sizes, a degenerate segment, a non-convex or clockwise
+// polygon, an empty mesh or one with an edge shared by more than two triangles.
+void validateShape(const Shape& shape, const std::string& owner);
+
+// Radius of a ball about the local origin containing the shape; +inf for half-spaces.
+double boundingRadius(const Shape& shape);
+bool isUnbounded(const Shape& shape);
+
+// The point of a convex shape farthest along `direction` (local frame). Used for half-space
+// contacts, where it gives exact gaps for every convex shape.
+Vector3 supportPoint(const Shape& shape, const Vector3& direction);
+
+}  // namespace sweep
