@@ -1,0 +1,189 @@
+// Detection: persistent frames and identities, margins, materials, path choice.
+#include "contact/detection.hpp"
+
+#include <gtest/gtest.h>
+
+#include "contact_test_scenes.hpp"
+#include "framework/configuration.hpp"
+#include "framework/error.hpp"
+
+namespace sweep {
+namespace {
+
+// A sphere rolling without slip on a plane for a full turn: one contact, same identity every
+// step, and a tangent frame that never flips.
+TEST(ContactFrames, PersistentForASphereRollingOnAPlane) {
+  ModelBuilder mb("rolling");
+  addFreeBody(mb, "ball", solidSphereInertia(1.0, 0.5));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(0.5));
+  Pose floor;
+  floor.rotation = Eigen::AngleAxisd(0.2, Vector3(1, 1, 0).normalized()).toRotationMatrix();
+  cb.addGeometry("floor", BodyRef::world(), floor, Shape::halfSpace());
+  const ContactModel cmodel = cb.build();
+  const Vector3 up = floor.rotation.col(2);
+  VectorX q = model.neutralConfiguration();
+  q.head<3>() = 0.5 * up;
+  // rolling along a direction of the plane: v = w x (r up); body-frame angular velocity
+  const Vector3 along = floor.rotation.col(0);
+  Data data(model);
+  ContactData cdata(model, cmodel);
+  Vector3 previous_tangent = Vector3::Zero();
+  const double h = 0.01;
+  for (int step = 0; step < 700; ++step) {
+    forwardKinematics(model, data, q);
+    detectContacts(model, data, cmodel, cdata, 0.0, 1e-3);
+    ASSERT_EQ(cdata.contacts.size(), 1u) << "step " << step;
+    const Contact& c = cdata.contacts[0];
+    if (step > 0) {
+      EXPECT_EQ(c.previous, 0);
+      EXPECT_GT(c.tangent1.dot(previous_tangent), 1.0 - 1e-12) << "step " << step;
+    }
+    EXPECT_NEAR(c.tangent1.dot(c.normal), 0.0, 1e-15);
+    EXPECT_NEAR(c.tangent2.dot(c.normal), 0.0, 1e-15);
+    EXPECT_NEAR(c.normal.cross(c.tangent1).dot(c.tangent2), 1.0, 1e-15);
+    previous_tangent = c.tangent1;
+    // roll: linear velocity in world, angular velocity in body axes
+    const Vector3 w_world = up.cross(along) * (-1.0 / 0.5);
+    VectorX v = VectorX::Zero(model.nv);
+    v.head<3>() = along;
+    v.tail<3>() = data.world_pose[0].rotation.transpose() * w_world;
+    q = integrate(model, q, h * v);
+  }
+}
+
+// A ball orbiting another over the whole sphere of directions: the normal passes through
+// every axis, and the tangent carried from step to step still never flips.
+TEST(ContactFrames, PersistentForABallOrbitingABall) {
+  const test::ShapeScene scene = test::shapeScene({Shape::sphere(1.0), Shape::sphere(0.5)});
+  const ContactModel cmodel = scene.contactModel(DetectionPathChoice::Automatic);
+  Data data(scene.model);
+  ContactData cdata(scene.model, cmodel);
+  VectorX q = scene.model.neutralConfiguration();
+  Vector3 previous_tangent = Vector3::Zero();
+  for (int step = 0; step < 2000; ++step) {
+    const double s = 0.01 * step;
+    const Vector3 direction(std::cos(s) * std::cos(0.37 * s), std::sin(s) * std::cos(0.37 * s),
+                            std::sin(0.37 * s));
+    test::placeBody(scene.model, q, 1, 1.5 * direction, Quaternion::Identity());
+    forwardKinematics(scene.model, data, q);
+    detectContacts(scene.model, data, cmodel, cdata, 0.0, 1e-3);
+    ASSERT_EQ(cdata.contacts.size(), 1u);
+    const Contact& c = cdata.contacts[0];
+    EXPECT_LT((c.normal - direction).norm(), 1e-12);
+    if (step > 0) {
+      EXPECT_GT(c.tangent1.dot(previous_tangent), 0.99) << "step " << step;
+    }
+    previous_tangent = c.tangent1;
+  }
+}
+
+TEST(ContactFrames, PlanarTangentIsNormalTurnedCounterClockwise) {
+  const test::ShapeScene scene = test::shapeScene({Shape::disk(1.0), Shape::disk(0.5)});
+  const ContactModel cmodel = scene.contactModel(DetectionPathChoice::Automatic);
+  EXPECT_EQ(cmodel.dimension, 2);
+  Data data(scene.model);
+  ContactData cdata(scene.model, cmodel);
+  VectorX q = scene.model.neutralConfiguration();
+  test::placeBody(scene.model, q, 1, Vector3(0.9, 1.2, 0.0), Quaternion::Identity());
+  forwardKinematics(scene.model, data, q);
+  detectContacts(scene.model, data, cmodel, cdata, 0.0, 0.1);
+  ASSERT_EQ(cdata.contacts.size(), 1u);
+  const Contact& c = cdata.contacts[0];
+  EXPECT_TRUE(c.normal.isApprox(Vector3(0.6, 0.8, 0.0)));
+  EXPECT_TRUE(c.tangent1.isApprox(Vector3(-0.8, 0.6, 0.0)));
+  EXPECT_EQ(c.tangent2, Vector3::Zero());
+}
+
+TEST(Detection, ContactLawsPerMaterialPair) {
+  const test::ShapeScene scene =
+      test::shapeScene({Shape::disk(1.0), Shape::disk(1.0), Shape::disk(1.0)});
+  ContactModelBuilder cb(scene.model);
+  const int steel = cb.materials().add("steel");
+  const int rubber = cb.materials().add("rubber");
+  cb.materials().setDefaultLaw({0.1, 0.2});
+  cb.materials().setLaw(steel, rubber, {0.8, 0.5});
+  cb.addGeometry("a", BodyRef::dynamic(0), Pose::identity(), Shape::disk(1.0), steel);
+  cb.addGeometry("b", BodyRef::dynamic(1), Pose::identity(), Shape::disk(1.0), rubber);
+  cb.addGeometry("c", BodyRef::dynamic(2), Pose::identity(), Shape::disk(1.0), steel);
+  const ContactModel cmodel = cb.build();
+  EXPECT_FALSE(cmodel.frictionless);
+  VectorX q = scene.model.neutralConfiguration();
+  test::placeBody(scene.model, q, 1, Vector3(2.0, 0.0, 0.0), Quaternion::Identity());
+  test::placeBody(scene.model, q, 2, Vector3(1.0, 1.75, 0.0), Quaternion::Identity());
+  Data data(scene.model);
+  forwardKinematics(scene.model, data, q);
+  ContactData cdata(scene.model, cmodel);
+  detectContacts(scene.model, data, cmodel, cdata, 0.0, 0.1);
+  ASSERT_EQ(cdata.contacts.size(), 3u);  // a-b touching, a-c and b-c 0.016 apart
+  // steel-rubber has its own law; steel-steel falls back to the default
+  EXPECT_EQ(cdata.contacts[0].friction, 0.8);  // a-b
+  EXPECT_EQ(cdata.contacts[0].restitution, 0.5);
+  EXPECT_EQ(cdata.contacts[1].friction, 0.1);  // a-c
+  EXPECT_EQ(cdata.contacts[1].restitution, 0.2);
+  EXPECT_EQ(cdata.contacts[2].friction, 0.8);  // b-c
+}
+
+TEST(Detection, FrictionlessSceneIsFlagged) {
+  const test::ShapeScene scene = test::shapeScene({Shape::disk(1.0), Shape::disk(1.0)});
+  EXPECT_TRUE(scene.contactModel(DetectionPathChoice::Automatic).frictionless);
+}
+
+TEST(Detection, MarginGrowsWithSpeedAndKeepsAFloor) {
+  const test::ShapeScene scene = test::shapeScene({Shape::disk(0.01), Shape::disk(0.02)});
+  const ContactModel cmodel = scene.contactModel(DetectionPathChoice::Automatic);
+  EXPECT_DOUBLE_EQ(cmodel.margin_floor, 1e-3 * 0.01);
+  Data data(scene.model);
+  VectorX q = scene.model.neutralConfiguration();
+  VectorX v = VectorX::Zero(scene.model.nv);
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_DOUBLE_EQ(detectionMargin(scene.model, data, cmodel, 1e-3, 0.0), cmodel.margin_floor);
+  v.segment<3>(3) << 3.0, 4.0, 10.0;  // 5 m/s and 10 rad/s on a 0.02 m disk
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_NEAR(detectionMargin(scene.model, data, cmodel, 1e-3, 0.0),
+              2.0 * 1e-3 * (5.0 + 10.0 * 0.02) + cmodel.margin_floor, 1e-15);
+}
+
+TEST(Detection, PathChoiceIsExplained) {
+  const test::ShapeScene disks = test::shapeScene({Shape::disk(1.0), Shape::disk(1.0)});
+  const ContactModel fast = disks.contactModel(DetectionPathChoice::Automatic);
+  EXPECT_EQ(fast.path, DetectionPath::Analytic);
+  EXPECT_FALSE(fast.path_reason.empty());
+  const test::ShapeScene mixed = test::shapeScene(
+      {Shape::disk(1.0), Shape::polygon({{0, 0}, {1, 0}, {0, 1}})});
+  const ContactModel general = mixed.contactModel(DetectionPathChoice::Automatic);
+  EXPECT_EQ(general.path, DetectionPath::Fcl);
+  EXPECT_NE(general.path_reason.find("polygon"), std::string::npos) << general.path_reason;
+  EXPECT_THROW(mixed.contactModel(DetectionPathChoice::Analytic), InputError);
+}
+
+// Same configuration twice: bitwise the same contacts, in the same order.
+TEST(Detection, Deterministic) {
+  std::vector<Shape> shapes;
+  for (int i = 0; i < 200; ++i) shapes.push_back(Shape::sphere(0.5 + 0.001 * i));
+  const test::ShapeScene scene = test::shapeScene(shapes);
+  for (DetectionPathChoice path : {DetectionPathChoice::Automatic, DetectionPathChoice::Fcl}) {
+    const ContactModel cmodel = scene.contactModel(path);
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> u(0.0, 6.0);
+    VectorX q = scene.model.neutralConfiguration();
+    for (int i = 0; i < 200; ++i)
+      test::placeBody(scene.model, q, i, Vector3(u(rng), u(rng), u(rng)), Quaternion::Identity());
+    Data data(scene.model);
+    forwardKinematics(scene.model, data, q);
+    ContactData first(scene.model, cmodel), second(scene.model, cmodel);
+    detectContacts(scene.model, data, cmodel, first, 0.0, 0.05);
+    detectContacts(scene.model, data, cmodel, second, 0.0, 0.05);
+    ASSERT_EQ(first.contacts.size(), second.contacts.size());
+    ASSERT_GT(first.contacts.size(), 10u);
+    for (std::size_t k = 0; k < first.contacts.size(); ++k) {
+      EXPECT_EQ(first.contacts[k].key, second.contacts[k].key);
+      EXPECT_EQ(first.contacts[k].gap, second.contacts[k].gap);
+      EXPECT_EQ(first.contacts[k].normal, second.contacts[k].normal);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sweep

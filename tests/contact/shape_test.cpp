@@ -1,0 +1,130 @@
+// Bad shapes and meshes are refused with a message naming the body and the shape.
+#include "contact/shape.hpp"
+
+#include <gtest/gtest.h>
+
+#include "contact/contact_model.hpp"
+#include "contact/mesh_io.hpp"
+#include "framework/error.hpp"
+#include "framework/urdf_import.hpp"
+#include "models/rigid_bodies.hpp"
+
+namespace sweep {
+namespace {
+
+std::string dataPath(const std::string& name) { return std::string(SWEEP_TEST_DATA) + "/" + name; }
+
+// the message of the InputError that building a one-shape scene raises
+std::string buildError(const Shape& shape) {
+  ModelBuilder mb("bad shapes");
+  addFreeBody(mb, "wheel", solidSphereInertia(1.0, 1.0));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.addGeometry("rim", BodyRef::dynamic(0), Pose::identity(), shape);
+  try {
+    cb.build();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expectRefused(const Shape& shape, const std::string& what) {
+  const std::string message = buildError(shape);
+  EXPECT_NE(message.find("body 'wheel', shape 'rim'"), std::string::npos) << message;
+  EXPECT_NE(message.find(what), std::string::npos) << message;
+}
+
+TEST(ShapeValidation, RadiusMustBePositive) {
+  expectRefused(Shape::sphere(0.0), "radius must be > 0 and finite, got 0");
+  expectRefused(Shape::sphere(-0.3e-3), "radius must be > 0 and finite, got -0.0003");
+  expectRefused(Shape::cylinder(std::nan(""), 1.0), "radius must be > 0 and finite, got nan");
+  expectRefused(Shape::capsule(0.1, -1.0), "length must be > 0");
+}
+
+TEST(ShapeValidation, DegenerateBox) {
+  expectRefused(Shape::box(Vector3(1.0, 0.0, 1.0)), "size.y must be > 0");
+}
+
+TEST(ShapeValidation, Polygons) {
+  expectRefused(Shape::polygon({{0, 0}, {1, 0}}), "at least 3 vertices");
+  expectRefused(Shape::polygon({{0, 0}, {0, 1}, {1, 0}}), "counter-clockwise");
+  expectRefused(Shape::polygon({{0, 0}, {2, 0}, {1, 0.2}, {2, 2}, {0, 2}}), "convex");
+  expectRefused(Shape::segment({0, 0}, {0, 0}), "length must be > 0");
+}
+
+TEST(ShapeValidation, Meshes) {
+  expectRefused(Shape::triangleMesh(std::make_shared<TriangleMesh>()), "mesh is empty");
+  expectRefused(Shape::triangleMesh(loadTriangleMesh(dataPath("meshes/non_manifold.stl"))),
+                "non-manifold mesh");
+  // a cube with one face removed is fine as a surface, not as a convex solid
+  auto open_box = loadTriangleMesh(dataPath("meshes/cube.stl"));
+  open_box->triangles.pop_back();
+  EXPECT_EQ(buildError(Shape::triangleMesh(open_box)), "");
+  expectRefused(Shape::convexMesh(open_box), "not closed");
+}
+
+TEST(MeshIo, ReadsAsciiStlAndMergesVertices) {
+  const auto cube = loadTriangleMesh(dataPath("meshes/cube.stl"), Vector3(2.0, 2.0, 2.0));
+  EXPECT_EQ(cube->triangles.size(), 12u);
+  EXPECT_EQ(cube->vertices.size(), 8u);
+  for (const Vector3& p : cube->vertices) EXPECT_DOUBLE_EQ(p.cwiseAbs().maxCoeff(), 1.0);
+  EXPECT_EQ(buildError(Shape::convexMesh(cube)), "");
+}
+
+TEST(MeshIo, MissingOrEmptyFileNamesTheFile) {
+  try {
+    loadTriangleMesh(dataPath("meshes/none.stl"));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("meshes/none.stl: mesh file not found"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(loadTriangleMesh(dataPath("meshes/empty.stl")), InputError);
+}
+
+TEST(MeshIo, UrdfCollisionMeshMissing) {
+  const Model model = loadUrdf(dataPath("urdf/bad/missing_mesh.urdf"));
+  ContactModelBuilder cb(model);
+  try {
+    cb.addModelCollisions();
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("body 'arm'"), std::string::npos) << message;
+    EXPECT_NE(message.find("no_such_file.stl: mesh file not found"), std::string::npos)
+        << message;
+  }
+}
+
+TEST(MeshIo, UrdfCollisionMeshLoaded) {
+  const Model model = loadUrdf(dataPath("urdf/arm6.urdf"));
+  ContactModelBuilder cb(model);
+  cb.addModelCollisions();
+  const ContactModel cmodel = cb.build();
+  int meshes = 0;
+  for (const Geometry& g : cmodel.geometries)
+    if (g.shape.type == ShapeType::TriangleMesh) {
+      ++meshes;
+      // 300 x 40 x 40 mm bar scaled to metres
+      EXPECT_NEAR(boundingRadius(g.shape), std::sqrt(0.3 * 0.3 + 2 * 0.02 * 0.02), 1e-12);
+    }
+  EXPECT_EQ(meshes, 1);
+}
+
+TEST(Materials, LawsAreValidated) {
+  MaterialTable table;
+  const int steel = table.add("steel");
+  EXPECT_THROW(table.add("steel"), InputError);
+  EXPECT_THROW(table.setLaw(steel, 0, {-0.1, 0.0}), InputError);
+  EXPECT_THROW(table.setLaw(steel, 0, {0.3, 1.5}), InputError);
+  table.setLaw(steel, 0, {0.3, 0.5});
+  EXPECT_EQ(table.law(0, steel).friction, 0.3);
+  EXPECT_EQ(table.law(steel, steel).friction, 0.0);
+  EXPECT_EQ(table.id("steel"), steel);
+  EXPECT_THROW(table.id("wood"), InputError);
+}
+
+}  // namespace
+}  // namespace sweep
