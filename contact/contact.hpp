@@ -24,16 +24,18 @@ struct ContactKey {
   }
 };
 
+// Detection writes every field; the vectors carry no default values, so that emitting 10^5
+// contacts per step does not write each one twice.
 struct Contact {
   ContactKey key;
   BodyRef body_a;
   BodyRef body_b;
   double gap = 0.0;                     // signed distance; < 0 when overlapping
-  Vector3 normal = Vector3::UnitZ();    // unit, world, from a towards b
-  Vector3 tangent1 = Vector3::UnitX();  // world, orthonormal to the normal
-  Vector3 tangent2 = Vector3::Zero();   // 3D only; normal x tangent1
-  Vector3 point_a = Vector3::Zero();    // world witness point on a
-  Vector3 point_b = Vector3::Zero();    // world witness point on b: point_a + gap * normal
+  Vector3 normal;    // unit, world, from a towards b
+  Vector3 tangent1;  // world, orthonormal to the normal
+  Vector3 tangent2;  // 3D: normal x tangent1; 2D: zero
+  Vector3 point_a;   // world witness point on a
+  Vector3 point_b;   // world witness point on b: point_a + gap * normal
   double friction = 0.0;
   double restitution = 0.0;
   int previous = -1;  // index of the same contact in the previous detection, or -1

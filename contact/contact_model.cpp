@@ -29,18 +29,6 @@ void DetectionSettings::validate() const {
   if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));
 }
 
-bool ContactModel::mayCollide(const Model& model, int a, int b) const {
-  const Geometry& ga = geometries[a];
-  const Geometry& gb = geometries[b];
-  if (ga.body == gb.body) return false;
-  if (!ga.body.hasDofs() && !gb.body.hasDofs()) return false;
-  if (isUnbounded(ga.shape) && isUnbounded(gb.shape)) return false;
-  if (ga.body.hasDofs() && gb.body.hasDofs() && !settings.self_collision &&
-      model.bodies[ga.body.index].component == model.bodies[gb.body.index].component)
-    return false;
-  return true;
-}
-
 std::string ContactModelBuilder::ownerName(const Geometry& g) const {
   std::string body;
   switch (g.body.kind) {
@@ -184,6 +172,32 @@ ContactModel ContactModelBuilder::build() const {
       if (g.body.hasDofs() && !isUnbounded(g.shape))
         smallest = std::min(smallest, characteristicSize(g.shape));
     cm.margin_floor = std::isfinite(smallest) ? 1e-3 * smallest : 0.0;
+  }
+
+  for (const Geometry& g : geometries_) {
+    ContactModel::Traits f;
+    f.body_ref = g.body;
+    f.material = g.material;
+    f.type = g.shape.type;
+    f.moving = g.body.hasDofs();
+    f.unbounded = isUnbounded(g.shape);
+    f.identity_placement =
+        g.placement.translation.isZero(0.0) && g.placement.rotation == Matrix3::Identity();
+    if (g.shape.type == ShapeType::Sphere || g.shape.type == ShapeType::Disk)
+      f.ball_radius = g.shape.radius;
+    switch (g.body.kind) {
+      case BodyRef::Kind::Dynamic:
+        f.body = g.body.index;
+        f.component = model_.bodies[g.body.index].component;
+        break;
+      case BodyRef::Kind::Driven:
+        f.body = -1 - g.body.index;
+        break;
+      case BodyRef::Kind::World:
+        f.body = std::numeric_limits<int>::min();
+        break;
+    }
+    cm.traits.push_back(f);
   }
 
   std::set<int> used;

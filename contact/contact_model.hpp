@@ -65,9 +65,31 @@ struct ContactModel {
   double margin_floor = 0.0;
   bool frictionless = true;  // every law that can apply has mu = 0
 
+  // per geometry, what the per-pair work reads, packed (40 bytes) so that a step over 10^5
+  // grains does not stream whole Geometry records through the cache
+  struct Traits {
+    BodyRef body_ref;
+    int body = -1;       // dynamic body index, or -1 - driven index, or a large negative: world
+    int component = -1;  // component of a dynamic body, -1 otherwise
+    int material = 0;
+    ShapeType type = ShapeType::Sphere;
+    bool moving = false;
+    bool unbounded = false;
+    bool identity_placement = false;
+    double ball_radius = -1.0;  // sphere and disk radius, -1 for other shapes
+  };
+  std::vector<Traits> traits;
+
   int size() const { return static_cast<int>(geometries.size()); }
-  // whether geometries a and b are tested at all (moving, not the same body, not filtered)
-  bool mayCollide(const Model& model, int a, int b) const;
+  // whether geometries a and b are tested at all: not on one body, at least one with dofs,
+  // not two half-spaces, not two bodies of one articulated component (unless self_collision)
+  bool mayCollide(int a, int b) const {
+    const Traits& fa = traits[a];
+    const Traits& fb = traits[b];
+    if (fa.body == fb.body || !(fa.moving || fb.moving) || (fa.unbounded && fb.unbounded))
+      return false;
+    return settings.self_collision || fa.component < 0 || fa.component != fb.component;
+  }
 };
 
 class ContactModelBuilder {

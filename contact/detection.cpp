@@ -151,20 +151,17 @@ void setFrame(Contact& c, int dimension, const Contact* previous) {
   c.tangent2 = c.normal.cross(c.tangent1);
 }
 
-void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData& cdata,
-                    double margin) {
+void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margin) {
   const int n = static_cast<int>(cdata.particles.size());
   double largest = 0.0;
   for (int k = 0; k < n; ++k) {
     cdata.particle_center[k] = cdata.geometry_pose[cdata.particles[k]].translation;
     largest = std::max(largest, cdata.particle_radius[k]);
   }
-  cdata.grid.build(cdata.particle_center, 2.0 * largest + margin, cmodel.dimension);
+  cdata.grid.build(cdata.particle_center, cdata.particle_radius, 2.0 * largest + margin,
+                   cmodel.dimension);
   const std::size_t first = cdata.pairs.size();
-  cdata.grid.findPairs(
-      cdata.particle_center,
-      [&](int i, int j) { return cdata.particle_radius[i] + cdata.particle_radius[j] + margin; },
-      cdata.pairs);
+  cdata.grid.findPairs(margin, cdata.pairs);
   for (std::size_t k = first; k < cdata.pairs.size(); ++k) {
     auto& [i, j] = cdata.pairs[k];
     i = cdata.particles[i];
@@ -188,22 +185,37 @@ void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData&
     }
     for (std::size_t m = l + 1; m < cdata.large.size(); ++m) {
       const int other = cdata.large[m];
-      if (cmodel.mayCollide(model, g, other)) cdata.pairs.emplace_back(g, other);
+      if (cmodel.mayCollide(g, other)) cdata.pairs.emplace_back(g, other);
     }
   }
 }
 
-void broadphaseFcl(const Model& model, const ContactModel& cmodel, ContactData& cdata,
-                   double margin) {
+void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata, double margin) {
   cdata.fcl->update(cdata.geometry_pose, margin);
   cdata.fcl->findPairs(cdata.pairs);
   // FCL holds no half-spaces: they meet every geometry
   for (int h = 0; h < cmodel.size(); ++h) {
     if (cdata.fcl->has(h)) continue;
     for (int g = 0; g < cmodel.size(); ++g)
-      if (g != h && cmodel.mayCollide(model, g, h))
+      if (g != h && cmodel.mayCollide(g, h))
         cdata.pairs.emplace_back(std::min(g, h), std::max(g, h));
   }
+}
+
+// Sorts pairs (a < b) in linear time: counting sort on a, then insertion sort on b inside
+// each run, which holds a handful of neighbours.
+void sortPairs(int geometries, ContactData& cdata) {
+  std::vector<int>& start = cdata.pair_start;
+  start.assign(geometries + 1, 0);
+  for (const auto& pair : cdata.pairs) ++start[pair.first + 1];
+  for (int g = 0; g < geometries; ++g) start[g + 1] += start[g];
+  cdata.sorted_pairs.resize(cdata.pairs.size());
+  for (const auto& pair : cdata.pairs) cdata.sorted_pairs[start[pair.first]++] = pair;
+  std::swap(cdata.pairs, cdata.sorted_pairs);
+  auto& pairs = cdata.pairs;
+  for (std::size_t k = 1; k < pairs.size(); ++k)
+    for (std::size_t m = k; m > 0 && pairs[m] < pairs[m - 1]; --m)
+      std::swap(pairs[m], pairs[m - 1]);
 }
 
 }  // namespace
@@ -217,36 +229,52 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
 
   // broadphase
   if (cmodel.path == DetectionPath::Analytic)
-    broadphaseGrid(model, cmodel, cdata, margin);
+    broadphaseGrid(cmodel, cdata, margin);
   else
-    broadphaseFcl(model, cmodel, cdata, margin);
-  std::sort(cdata.pairs.begin(), cdata.pairs.end());
+    broadphaseFcl(cmodel, cdata, margin);
+  sortPairs(cmodel.size(), cdata);
   cdata.stats = DetectionStats{};
 
-  // narrowphase
+  // narrowphase, then identity across steps (both lists sorted by key) and frames
+  std::size_t previous = 0;
   for (const auto& [a, b] : cdata.pairs) {
-    if (!cmodel.mayCollide(model, a, b)) continue;
+    if (!cmodel.mayCollide(a, b)) continue;
     ++cdata.stats.broadphase_pairs;
-    const Geometry& ga = cmodel.geometries[a];
-    const Geometry& gb = cmodel.geometries[b];
-    cdata.points.clear();
-    const bool half_space = isUnbounded(ga.shape) || isUnbounded(gb.shape);
-    if (cmodel.path == DetectionPath::Analytic || half_space)
-      analyticPair(ga.shape, cdata.geometry_pose[a], gb.shape, cdata.geometry_pose[b], margin,
-                   cdata.points);
-    else
-      cdata.fcl->narrowphase(a, b, margin, cdata.points);
-    const ContactLaw& law = cmodel.materials.law(ga.material, gb.material);
-    for (const ContactPoint& p : cdata.points) {
-      if (!(p.gap < margin)) continue;
-      Contact c;
+    const ContactModel::Traits& ta = cmodel.traits[a];
+    const ContactModel::Traits& tb = cmodel.traits[b];
+    const std::size_t first = cdata.contacts.size();
+    auto emit = [&](const ContactPoint& p) {
+      if (!(p.gap < margin)) return;
+      Contact& c = cdata.contacts.emplace_back();
       c.key = ContactKey{a, b, p.feature};
-      c.body_a = ga.body;
-      c.body_b = gb.body;
+      c.body_a = ta.body_ref;
+      c.body_b = tb.body_ref;
       c.gap = p.gap;
       c.normal = p.normal;
       c.point_a = p.point_a;
       c.point_b = p.point_b;
+    };
+    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
+      // grain against grain, the bulk of a granular step: nothing but centres and radii
+      emit(ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
+                    cdata.geometry_pose[b].translation, tb.ball_radius));
+    } else {
+      cdata.points.clear();
+      if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+        analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
+                     cdata.geometry_pose[b], margin, cdata.points);
+      else
+        cdata.fcl->narrowphase(a, b, margin, cdata.points);
+      for (const ContactPoint& p : cdata.points) emit(p);
+      // a pair's several points are put in feature order (pairs already are sorted)
+      for (std::size_t k = first + 1; k < cdata.contacts.size(); ++k)
+        for (std::size_t m = k; m > first && cdata.contacts[m].key < cdata.contacts[m - 1].key; --m)
+          std::swap(cdata.contacts[m], cdata.contacts[m - 1]);
+    }
+    if (first == cdata.contacts.size()) continue;
+    const ContactLaw& law = cmodel.materials.law(ta.material, tb.material);
+    for (std::size_t k = first; k < cdata.contacts.size(); ++k) {
+      Contact& c = cdata.contacts[k];
       if (cmodel.dimension == 2) {
         // FCL's prisms may report witness points off the scene plane
         c.normal.z() = 0.0;
@@ -256,20 +284,13 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       }
       c.friction = law.friction;
       c.restitution = law.restitution;
-      cdata.contacts.push_back(c);
+      while (previous < cdata.previous.size() && cdata.previous[previous].key < c.key) ++previous;
+      const bool matched =
+          previous < cdata.previous.size() && cdata.previous[previous].key == c.key;
+      c.previous = matched ? static_cast<int>(previous) : -1;
+      cdata.stats.matched += matched ? 1 : 0;
+      setFrame(c, cmodel.dimension, matched ? &cdata.previous[previous] : nullptr);
     }
-  }
-  std::sort(cdata.contacts.begin(), cdata.contacts.end(),
-            [](const Contact& x, const Contact& y) { return x.key < y.key; });
-
-  // identity across steps (both lists sorted by key) and frames
-  std::size_t p = 0;
-  for (Contact& c : cdata.contacts) {
-    while (p < cdata.previous.size() && cdata.previous[p].key < c.key) ++p;
-    const bool matched = p < cdata.previous.size() && cdata.previous[p].key == c.key;
-    c.previous = matched ? static_cast<int>(p) : -1;
-    cdata.stats.matched += matched ? 1 : 0;
-    setFrame(c, cmodel.dimension, matched ? &cdata.previous[p] : nullptr);
   }
   cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
 }

@@ -39,6 +39,8 @@ struct ContactData {
 
   // workspaces
   std::vector<std::pair<int, int>> pairs;
+  std::vector<std::pair<int, int>> sorted_pairs;
+  std::vector<int> pair_start;
   std::vector<ContactPoint> points;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry

@@ -60,6 +60,7 @@ struct FclScene::Impl {
   std::vector<double> local_radius;
   fcl::DynamicAABBTreeCollisionManagerd manager;
   double applied_margin = -1.0;
+  bool registered = false;
   double distance_tolerance = 1e-12;
   double touching_gap = 0.0;  // below it, a separated pair is treated as touching
 };
@@ -133,9 +134,7 @@ FclScene::FclScene(const ContactModel& cmodel) : impl_(std::make_unique<Impl>())
     s.local_radius[i] = s.geometry[i]->aabb_radius;
     s.object[i] = std::make_unique<fcl::CollisionObjectd>(s.geometry[i]);
     s.object[i]->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
-    s.manager.registerObject(s.object[i].get());
   }
-  s.manager.setup();
 }
 
 FclScene::~FclScene() = default;
@@ -163,7 +162,18 @@ void FclScene::update(const std::vector<Pose>& geometry_poses, double margin) {
     s.object[i]->computeAABB();
   }
   s.applied_margin = margin;
-  s.manager.update();
+  if (s.registered) {
+    s.manager.update();
+    return;
+  }
+  // registered at the first real poses, all at once: inserting objects one by one while
+  // they all sit at the origin degenerates the tree (quadratic cost)
+  std::vector<fcl::CollisionObjectd*> objects;
+  for (const auto& object : s.object)
+    if (object) objects.push_back(object.get());
+  s.manager.registerObjects(objects);
+  s.manager.setup();
+  s.registered = true;
 }
 
 namespace {

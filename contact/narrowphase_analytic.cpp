@@ -26,18 +26,6 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
   }
 }
 
-ContactPoint ballBall(const Vector3& center_a, double radius_a, const Vector3& center_b,
-                      double radius_b) {
-  ContactPoint c;
-  const Vector3 d = center_b - center_a;
-  const double distance = d.norm();
-  c.normal = distance > 0.0 ? Vector3(d / distance) : Vector3::UnitX();
-  c.gap = distance - radius_a - radius_b;
-  c.point_a = center_a + radius_a * c.normal;
-  c.point_b = center_b - radius_b * c.normal;
-  return c;
-}
-
 ContactPoint segmentBall(const Vector3& start, const Vector3& end, double rounding,
                          const Vector3& center, double radius) {
   const Vector3 axis = end - start;

@@ -18,8 +18,17 @@ struct ContactPoint {
 bool hasAnalyticNarrowphase(ShapeType a, ShapeType b);
 
 // Ball (sphere, or disk in its plane) against ball. Coincident centres get normal +x.
-ContactPoint ballBall(const Vector3& center_a, double radius_a, const Vector3& center_b,
-                      double radius_b);
+inline ContactPoint ballBall(const Vector3& center_a, double radius_a, const Vector3& center_b,
+                             double radius_b) {
+  ContactPoint c;
+  const Vector3 d = center_b - center_a;
+  const double distance = d.norm();
+  c.normal = distance > 0.0 ? Vector3(d / distance) : Vector3::UnitX();
+  c.gap = distance - radius_a - radius_b;
+  c.point_a = center_a + radius_a * c.normal;
+  c.point_b = center_b - radius_b * c.normal;
+  return c;
+}
 
 // Rounded segment [start, end] against ball.
 ContactPoint segmentBall(const Vector3& start, const Vector3& end, double rounding,

@@ -224,10 +224,6 @@ void validateShape(const Shape& shape, const std::string& owner) {
   }
 }
 
-bool isUnbounded(const Shape& shape) {
-  return shape.type == ShapeType::HalfSpace || shape.type == ShapeType::HalfPlane;
-}
-
 double boundingRadius(const Shape& shape) {
   switch (shape.type) {
     case ShapeType::Sphere:

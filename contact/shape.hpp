@@ -67,7 +67,9 @@ void validateShape(const Shape& shape, const std::string& owner);
 
 // Radius of a ball about the local origin containing the shape; +inf for half-spaces.
 double boundingRadius(const Shape& shape);
-bool isUnbounded(const Shape& shape);
+inline bool isUnbounded(const Shape& shape) {
+  return shape.type == ShapeType::HalfSpace || shape.type == ShapeType::HalfPlane;
+}
 
 // The point of a convex shape farthest along `direction` (local frame). Used for half-space
 // contacts, where it gives exact gaps for every convex shape.
