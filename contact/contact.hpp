@@ -30,7 +30,7 @@ struct Contact {
   ContactKey key;
   BodyRef body_a;
   BodyRef body_b;
-  double gap = 0.0;                     // signed distance; < 0 when overlapping
+  double gap = 0.0;  // signed distance; < 0 when overlapping
   Vector3 normal;    // unit, world, from a towards b
   Vector3 tangent1;  // world, orthonormal to the normal
   Vector3 tangent2;  // 3D: normal x tangent1; 2D: zero

@@ -29,6 +29,15 @@ void DetectionSettings::validate() const {
   if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));
 }
 
+std::string describe(const ContactModel& cmodel) {
+  std::ostringstream out;
+  out << "contact: " << cmodel.size() << " shapes (" << cmodel.dimension << "D), detection "
+      << detectionPathName(cmodel.path) << " (" << cmodel.path_reason << "), margin floor "
+      << cmodel.margin_floor << " m, friction "
+      << (cmodel.frictionless ? "off (every mu = 0)" : "on");
+  return out.str();
+}
+
 std::string ContactModelBuilder::ownerName(const Geometry& g) const {
   std::string body;
   switch (g.body.kind) {

@@ -92,6 +92,10 @@ struct ContactModel {
   }
 };
 
+// One line for the run log: shape count, dimension, detection path and why, margin floor,
+// and whether the friction stage is needed.
+std::string describe(const ContactModel& cmodel);
+
 class ContactModelBuilder {
  public:
   explicit ContactModelBuilder(const Model& model) : model_(model) {}

@@ -54,8 +54,12 @@ void expectSamePairs(int count, bool planar) {
   EXPECT_GT(overlapping, 0);
 }
 
-TEST(Broadphase, GridAndFclAgreeOn2000Disks) { expectSamePairs(2000, true); }
-TEST(Broadphase, GridAndFclAgreeOn2000Spheres) { expectSamePairs(2000, false); }
+TEST(Broadphase, GridAndFclAgreeOn2000Disks) {
+  expectSamePairs(2000, true);
+}
+TEST(Broadphase, GridAndFclAgreeOn2000Spheres) {
+  expectSamePairs(2000, false);
+}
 
 // Walls, planes and a driven blade against particles: the grid's queries for large shapes
 // find what FCL finds.
@@ -65,8 +69,8 @@ TEST(Broadphase, LargeShapesAgainstParticles) {
   ModelBuilder builder("particles and walls");
   for (int i = 0; i < count; ++i)
     addFreeBody(builder, "p" + std::to_string(i), solidSphereInertia(1.0, 0.5));
-  builder.addDrivenBody(DrivenBody::constantTwist("blade", Pose::identity(), Vector3(1, 0, 0),
-                                                  Vector3::Zero()));
+  builder.addDrivenBody(
+      DrivenBody::constantTwist("blade", Pose::identity(), Vector3(1, 0, 0), Vector3::Zero()));
   const Model model = builder.build();
   auto contactModel = [&](DetectionPathChoice path) {
     ContactModelBuilder cb(model);

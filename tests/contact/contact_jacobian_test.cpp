@@ -34,17 +34,22 @@ void expectRatesMatch(const Scene& s, const VectorX& v, double t, double margin,
   // material points of the witness points, carried along by their bodies
   auto worldPoint = [&](const Data& d, const BodyRef& body, const Vector3& local, double time) {
     switch (body.kind) {
-      case BodyRef::Kind::Dynamic: return d.world_pose[body.index].apply(local);
-      case BodyRef::Kind::Driven: return model.driven_bodies[body.index].pose(time).apply(local);
-      default: return local;
+      case BodyRef::Kind::Dynamic:
+        return d.world_pose[body.index].apply(local);
+      case BodyRef::Kind::Driven:
+        return model.driven_bodies[body.index].pose(time).apply(local);
+      default:
+        return local;
     }
   };
   auto localPoint = [&](const BodyRef& body, const Vector3& world) {
     switch (body.kind) {
-      case BodyRef::Kind::Dynamic: return data.world_pose[body.index].inverse().apply(world);
+      case BodyRef::Kind::Dynamic:
+        return data.world_pose[body.index].inverse().apply(world);
       case BodyRef::Kind::Driven:
         return model.driven_bodies[body.index].pose(t).inverse().apply(world);
-      default: return world;
+      default:
+        return world;
     }
   };
 
@@ -108,9 +113,9 @@ VectorX randomVelocity(int nv, unsigned seed) {
 
 TEST(ContactJacobian, PlanarBodies) {
   // a disk, a segment and a triangle on planar bodies; a half-plane floor in the world
-  const std::vector<Shape> shapes = {
-      Shape::disk(0.5), Shape::segment({-1.0, 0.0}, {1.0, 0.0}, 0.05),
-      Shape::polygon({{-0.5, -0.3}, {0.5, -0.3}, {0.0, 0.6}})};
+  const std::vector<Shape> shapes = {Shape::disk(0.5),
+                                     Shape::segment({-1.0, 0.0}, {1.0, 0.0}, 0.05),
+                                     Shape::polygon({{-0.5, -0.3}, {0.5, -0.3}, {0.0, 0.6}})};
   test::ShapeScene shape_scene = test::shapeScene(shapes);
   for (DetectionPathChoice path : {DetectionPathChoice::Automatic, DetectionPathChoice::Fcl}) {
     ContactModelBuilder builder(shape_scene.model);
@@ -145,8 +150,7 @@ TEST(ContactJacobian, FreeBodiesWithQuaternions) {
   const test::ShapeScene shape_scene = test::shapeScene(shapes);
   ContactModelBuilder builder(shape_scene.model);
   for (int i = 0; i < 3; ++i)
-    builder.addGeometry("s" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
-                        shapes[i]);
+    builder.addGeometry("s" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(), shapes[i]);
   Scene s{shape_scene.model, builder.build(), shape_scene.model.neutralConfiguration()};
   std::mt19937 rng(3);
   test::placeBody(s.model, s.q, 0, Vector3::Zero(), test::randomOrientation(rng, false));
@@ -162,8 +166,8 @@ TEST(ContactJacobian, UrdfArmTouchingABox) {
   // a table under the arm's reach; its top meets the forearm (link3 mesh, link4 sphere)
   Pose table;
   table.translation = Vector3(0.35, 0.0, 0.0);
-  const int table_id = builder.addGeometry("table", BodyRef::world(), table,
-                                           Shape::box(Vector3(0.4, 0.6, 0.1)));
+  const int table_id =
+      builder.addGeometry("table", BodyRef::world(), table, Shape::box(Vector3(0.4, 0.6, 0.1)));
   ContactModel cmodel = builder.build();
   EXPECT_EQ(cmodel.path, DetectionPath::Fcl);
   VectorX q = arm.neutralConfiguration();

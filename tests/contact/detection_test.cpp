@@ -150,12 +150,15 @@ TEST(Detection, PathChoiceIsExplained) {
   const ContactModel fast = disks.contactModel(DetectionPathChoice::Automatic);
   EXPECT_EQ(fast.path, DetectionPath::Analytic);
   EXPECT_FALSE(fast.path_reason.empty());
-  const test::ShapeScene mixed = test::shapeScene(
-      {Shape::disk(1.0), Shape::polygon({{0, 0}, {1, 0}, {0, 1}})});
+  const test::ShapeScene mixed =
+      test::shapeScene({Shape::disk(1.0), Shape::polygon({{0, 0}, {1, 0}, {0, 1}})});
   const ContactModel general = mixed.contactModel(DetectionPathChoice::Automatic);
   EXPECT_EQ(general.path, DetectionPath::Fcl);
   EXPECT_NE(general.path_reason.find("polygon"), std::string::npos) << general.path_reason;
   EXPECT_THROW(mixed.contactModel(DetectionPathChoice::Analytic), InputError);
+  EXPECT_EQ(describe(fast),
+            "contact: 2 shapes (2D), detection analytic narrowphase + uniform grid (every pair "
+            "that can meet has a closed form), margin floor 0.001 m, friction off (every mu = 0)");
 }
 
 // Same configuration twice: bitwise the same contacts, in the same order.

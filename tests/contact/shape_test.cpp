@@ -12,7 +12,9 @@
 namespace sweep {
 namespace {
 
-std::string dataPath(const std::string& name) { return std::string(SWEEP_TEST_DATA) + "/" + name; }
+std::string dataPath(const std::string& name) {
+  return std::string(SWEEP_TEST_DATA) + "/" + name;
+}
 
 // the message of the InputError that building a one-shape scene raises
 std::string buildError(const Shape& shape) {
@@ -77,8 +79,7 @@ TEST(MeshIo, MissingOrEmptyFileNamesTheFile) {
     loadTriangleMesh(dataPath("meshes/none.stl"));
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("meshes/none.stl: mesh file not found"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("meshes/none.stl: mesh file not found"), std::string::npos)
         << e.what();
   }
   EXPECT_THROW(loadTriangleMesh(dataPath("meshes/empty.stl")), InputError);
@@ -93,8 +94,7 @@ TEST(MeshIo, UrdfCollisionMeshMissing) {
   } catch (const InputError& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find("body 'arm'"), std::string::npos) << message;
-    EXPECT_NE(message.find("no_such_file.stl: mesh file not found"), std::string::npos)
-        << message;
+    EXPECT_NE(message.find("no_such_file.stl: mesh file not found"), std::string::npos) << message;
   }
 }
 
