@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "contact/fcl_scene.hpp"
 #include "contact/narrowphase_analytic.hpp"
@@ -51,6 +52,7 @@ ContactData::ContactData(const Model& model, const ContactModel& cmodel)
 
 ContactData::~ContactData() = default;
 ContactData::ContactData(ContactData&&) noexcept = default;
+ContactData& ContactData::operator=(ContactData&&) noexcept = default;
 
 void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
                          ContactData& cdata) {
@@ -293,6 +295,35 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     }
   }
   cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
+}
+
+void evaluateContactGaps(const Model& model, const Data& data, const ContactModel& cmodel,
+                         ContactData& cdata, double t, std::vector<double>& gaps) {
+  updateGeometryPoses(model, data, cmodel, t, cdata);
+  const double far = std::numeric_limits<double>::infinity();
+  if (cdata.fcl) cdata.fcl->update(cdata.geometry_pose, 0.0);
+  gaps.assign(cdata.contacts.size(), far);
+  std::size_t c = 0;
+  while (c < cdata.contacts.size()) {
+    const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
+    const ContactModel::Traits& ta = cmodel.traits[a];
+    const ContactModel::Traits& tb = cmodel.traits[b];
+    cdata.points.clear();
+    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0)
+      cdata.points.push_back(ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
+                                      cdata.geometry_pose[b].translation, tb.ball_radius));
+    else if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+      analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
+                   cdata.geometry_pose[b], far, cdata.points);
+    else
+      cdata.fcl->narrowphase(a, b, far, cdata.points);
+    // every contact of this pair takes the gap of its feature
+    for (; c < cdata.contacts.size() && cdata.contacts[c].key.geometry_a == a &&
+           cdata.contacts[c].key.geometry_b == b;
+         ++c)
+      for (const ContactPoint& p : cdata.points)
+        if (p.feature == cdata.contacts[c].key.feature) gaps[c] = p.gap;
+  }
 }
 
 }  // namespace sweep

@@ -30,6 +30,7 @@ struct ContactData {
   ContactData(const Model& model, const ContactModel& cmodel);
   ~ContactData();
   ContactData(ContactData&&) noexcept;
+  ContactData& operator=(ContactData&&) noexcept;
 
   std::vector<Pose> geometry_pose;  // world pose of each geometry
   std::vector<Contact> contacts;    // sorted by key
@@ -65,5 +66,11 @@ double detectionMargin(const Model& model, const Data& data, const ContactModel&
 // with frames and contact laws, each matched to the previous detection's contacts.
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
                     ContactData& cdata, double t, double margin);
+
+// Gaps of the contacts of the last detection, re-evaluated on the true geometry at the
+// configuration in `data` (after forwardKinematics) and time t: the end-of-step penetration
+// max(0, -gap) of the diagnostics. A feature that left the narrowphase gets +inf.
+void evaluateContactGaps(const Model& model, const Data& data, const ContactModel& cmodel,
+                         ContactData& cdata, double t, std::vector<double>& gaps);
 
 }  // namespace sweep

@@ -11,8 +11,6 @@
 
 namespace sweep {
 
-using Vector2 = Eigen::Vector2d;
-
 enum class ShapeType {
   // 3D
   Sphere,

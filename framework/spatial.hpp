@@ -10,6 +10,8 @@
 
 namespace sweep {
 
+using Vector2 = Eigen::Vector2d;
+using Matrix2 = Eigen::Matrix2d;
 using Vector3 = Eigen::Vector3d;
 using Matrix3 = Eigen::Matrix3d;
 using Vector6 = Eigen::Matrix<double, 6, 1>;

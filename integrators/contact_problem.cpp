@@ -1,0 +1,111 @@
+#include "integrators/contact_problem.hpp"
+
+#include <algorithm>
+
+#include "contact/detection.hpp"
+
+namespace sweep {
+
+const char* normalLawName(NormalLaw law) {
+  switch (law) {
+    case NormalLaw::Vel:
+      return "VEL";
+    case NormalLaw::Iqs:
+      return "IQS";
+    case NormalLaw::Pos:
+      return "POS";
+  }
+  return "?";
+}
+
+ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
+    : component_rhs(model.components.size()), dof_component(model.nv, 0) {
+  for (std::size_t i = 0; i < model.components.size(); ++i) {
+    const Component& component = model.components[i];
+    component_rhs[i] = MatrixX::Zero(component.nv, 3);
+    for (int k = 0; k < component.nv; ++k)
+      dof_component[component.v_index + k] = static_cast<int>(i);
+  }
+}
+
+void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
+                            const ContactData& cdata, NormalLaw law, double tau,
+                            const VectorX& v_start, ContactProblem& p,
+                            ContactProblemWorkspace& ws) {
+  const ContactJacobian& J = cdata.jacobian;
+  p.dimension = cmodel.dimension;
+  p.contact.clear();
+  p.begin.assign(1, 0);
+  p.minv_begin.assign(1, 0);
+  p.dof.clear();
+  p.h.clear();
+  p.minv_dof.clear();
+  p.minv_h.clear();
+  p.delassus.clear();
+  p.known.clear();
+  p.gap.clear();
+  p.friction.clear();
+  p.restitution.clear();
+  p.velocity_start.clear();
+  p.normal_bias.clear();
+
+  for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
+    const Contact& contact = cdata.contacts[c];
+    // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
+    if (law == NormalLaw::Vel && contact.gap > 0.0) continue;
+    p.contact.push_back(c);
+    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
+      p.dof.push_back(J.dof[k]);
+      p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);
+    }
+    p.begin.push_back(static_cast<int>(p.dof.size()));
+
+    // M^-1 H_c, component by component (a contact touches at most two)
+    ws.touched.clear();
+    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
+      const int comp = ws.dof_component[J.dof[k]];
+      const Component& component = model.components[comp];
+      if (std::find(ws.touched.begin(), ws.touched.end(), comp) == ws.touched.end()) {
+        ws.touched.push_back(comp);
+        ws.component_rhs[comp].setZero();
+      }
+      ws.component_rhs[comp].row(J.dof[k] - component.v_index) << J.normal[k], J.tangent1[k],
+          J.tangent2[k];
+    }
+    for (int comp : ws.touched) {
+      const Component& component = model.components[comp];
+      MatrixX& solved = ws.component_rhs[comp];
+      data.mass_factors[comp].solveInPlace(solved);
+      for (int i = 0; i < component.nv; ++i) {
+        p.minv_dof.push_back(component.v_index + i);
+        p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
+      }
+    }
+    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+
+    // W_cc = H_c^T M^-1 H_c, from the dense component columns
+    Matrix3 W = Matrix3::Zero();
+    const int pc = p.size() - 1;
+    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
+      for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
+        if (p.minv_dof[m] == p.dof[k]) W += p.h[k] * p.minv_h[m].transpose();
+    if (p.dimension == 2) {
+      W.row(2).setZero();
+      W.col(2).setZero();
+    }
+    p.delassus.push_back(W);
+
+    p.known.push_back(J.known_velocity[c]);
+    p.gap.push_back(contact.gap);
+    p.friction.push_back(contact.friction);
+    p.restitution.push_back(contact.restitution);
+    const Vector3 u_start = p.localVelocity(pc, v_start);
+    p.velocity_start.push_back(u_start);
+    double bias = contact.restitution * u_start.x();
+    if (law == NormalLaw::Iqs) bias += std::max(contact.gap, 0.0) / tau;
+    if (law == NormalLaw::Pos) bias += contact.gap / tau;
+    p.normal_bias.push_back(bias);
+  }
+}
+
+}  // namespace sweep

@@ -1,0 +1,72 @@
+#pragma once
+// The plain contact problem both schemes solve at q_m (the solvers see no bodies or shapes):
+// for every contact c of the index set, its rows H_c = [W_N W_T] over v (sparse), the same
+// rows premultiplied by M^-1 (sparse over the components the contact touches), the local
+// Delassus block W_cc = H_c^T M^-1 H_c, the known relative velocity, gap, mu and e.
+//
+//   U_c = H_c^T v + known_c              local velocity (normal, tangent1, tangent2)
+//   v   = v_free + sum_c (M^-1 H_c) P_c   velocity after the impulses P_c
+#include <vector>
+
+#include "framework/data.hpp"
+
+namespace sweep {
+
+struct ContactData;
+struct ContactModel;
+
+// Which detected contacts enter the solve, and the gap term of the normal law
+// (docs/schemes.md, reference section 1.4).
+enum class NormalLaw {
+  Vel,  // Newton law on velocities; contacts with g(q_m) <= 0 (Moreau)
+  Iqs,  // U_N + [g]_+ / tau >= 0 on every candidate (Jean's inelastic quasi-shock)
+  Pos,  // U_N + g / tau >= 0 on every candidate: g(q_m) + h/2 U_N(k+1) >= 0
+};
+const char* normalLawName(NormalLaw law);
+
+struct ContactProblem {
+  int dimension = 2;         // local size d: 2 (normal, tangent) or 3
+  std::vector<int> contact;  // index of each row block in ContactData::contacts
+
+  std::vector<int> begin;  // H entries of contact c: [begin[c], begin[c + 1])
+  std::vector<int> dof;
+  std::vector<Vector3> h;  // (W_N, W_T1, W_T2) at dof
+  std::vector<int> minv_begin;
+  std::vector<int> minv_dof;
+  std::vector<Vector3> minv_h;  // (M^-1 W_N, M^-1 W_T1, M^-1 W_T2) at minv_dof
+
+  std::vector<Matrix3> delassus;  // W_cc, d x d used
+  std::vector<Vector3> known;     // relative velocity from driven bodies
+  std::vector<double> gap, friction, restitution;
+  std::vector<Vector3> velocity_start;  // U_c^k = H_c^T v_k + known_c
+  std::vector<double> normal_bias;      // e U_N^k + gap term: U*_N = U_N + normal_bias
+
+  int size() const { return static_cast<int>(contact.size()); }
+
+  Vector3 localVelocity(int c, const VectorX& v) const {
+    Vector3 u = known[c];
+    for (int k = begin[c]; k < begin[c + 1]; ++k) u += h[k] * v[dof[k]];
+    return u;
+  }
+  // v += M^-1 H_c dP
+  void applyImpulse(int c, const Vector3& dP, VectorX& v) const {
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) v[minv_dof[k]] += minv_h[k].dot(dP);
+  }
+};
+
+// Workspace of the assembly, sized from the model.
+struct ContactProblemWorkspace {
+  explicit ContactProblemWorkspace(const Model& model);
+  std::vector<MatrixX> component_rhs;  // per component: nv x 3 block of H restricted to it
+  std::vector<int> dof_component;      // component of each velocity index
+  std::vector<int> touched;            // components of the current contact
+};
+
+// Builds the problem from cdata.contacts/jacobian (assembled at q_m) and the factored mass
+// blocks of data (at q_m). tau = h/2 is the time over which a gap closes (midpoint scheme).
+void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
+                            const ContactData& cdata, NormalLaw law, double tau,
+                            const VectorX& v_start, ContactProblem& problem,
+                            ContactProblemWorkspace& workspace);
+
+}  // namespace sweep

@@ -1,0 +1,363 @@
+#include "integrators/nlgs.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "framework/error.hpp"
+#include "integrators/coulomb_local.hpp"
+
+namespace sweep {
+
+const char* solverStatusName(SolverStatus status) {
+  switch (status) {
+    case SolverStatus::Converged:
+      return "converged";
+    case SolverStatus::MaxIterations:
+      return "max-iterations";
+    case SolverStatus::Failed:
+      return "failed";
+  }
+  return "?";
+}
+const char* tangentModeName(TangentMode mode) {
+  switch (mode) {
+    case TangentMode::Global:
+      return "global";
+    case TangentMode::Local:
+      return "local";
+    case TangentMode::None:
+      return "none";
+  }
+  return "?";
+}
+const char* frictionThresholdName(FrictionThreshold threshold) {
+  return threshold == FrictionThreshold::Physical ? "physical" : "metric";
+}
+
+void NlgsSettings::validate(const std::string& owner) const {
+  auto show = [](double x) {
+    std::ostringstream out;
+    out << x;
+    return out.str();
+  };
+  if (max_iterations < 1)
+    throw InputError(owner + ".max_iterations must be >= 1, got " + std::to_string(max_iterations));
+  if (!(std::isfinite(tolerance) && tolerance > 0.0))
+    throw InputError(owner + ".tolerance must be > 0, got " + show(tolerance));
+  if (!(std::isfinite(relaxation) && relaxation > 0.0 && relaxation < 2.0))
+    throw InputError(owner + ".relaxation must be in (0, 2), got " + show(relaxation));
+}
+
+void NlgsWorkspace::prepare(int contacts) {
+  order.resize(contacts);
+  threshold.resize(contacts);
+  held_normal.resize(contacts);
+  delta.resize(contacts);
+  for (int c = 0; c < contacts; ++c) order[c] = c;
+}
+
+namespace {
+
+void nextOrder(const NlgsSettings& settings, NlgsWorkspace& ws, int iteration) {
+  if (!settings.shuffle) return;
+  if (iteration == 0) ws.rng.seed(settings.seed);
+  std::shuffle(ws.order.begin(), ws.order.end(), ws.rng);
+}
+
+double relative(double num2, double den2) {
+  return den2 > 0.0 ? std::sqrt(num2 / den2) : std::sqrt(num2);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// scheme A
+// ---------------------------------------------------------------------------------------
+
+namespace {
+// natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
+// comparable to P (Siconos mixes impulses and velocities)
+double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, const VectorX& v) {
+  double f2 = 0.0, scale2 = 0.0;
+  for (int c = 0; c < p.size(); ++c) {
+    Vector3 u = p.localVelocity(c, v);
+    u.x() += p.normal_bias[c];
+    const Vector3 ru = u / p.delassus[c](0, 0);
+    f2 += coulombNaturalMap(P[c], ru, p.friction[c], p.dimension).squaredNorm();
+    scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
+  }
+  return relative(f2, scale2);
+}
+}  // namespace
+
+NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings,
+                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws) {
+  NlgsStats stats;
+  const int n = p.size();
+  for (int c = 0; c < n; ++c) p.applyImpulse(c, P[c], v);
+  if (n == 0) return stats;
+  const double omega = settings.relaxation;
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it);
+    double change2 = 0.0, size2 = 0.0;
+    stats.local_failures = 0;
+    for (int k = 0; k < n; ++k) {
+      const int c = ws.order[k];
+      const Matrix3& W = p.delassus[c];
+      // local free velocity: the current one without this contact's own impulse
+      Vector3 q = p.localVelocity(c, v) - W * P[c];
+      q.x() += p.normal_bias[c];
+      Vector3 P_new = Vector3::Zero();
+      bool ok = true;
+      if (p.dimension == 2) {
+        Vector2 P2;
+        ok = solveCoulomb2d(W.topLeftCorner<2, 2>(), q.head<2>(), p.friction[c], P2);
+        P_new.head<2>() = P2;
+      } else {
+        ok = solveCoulomb3d(W, q, p.friction[c], P_new);
+      }
+      stats.local_failures += ok ? 0 : 1;
+      P_new = omega * P_new + (1.0 - omega) * P[c];
+      const Vector3 dP = P_new - P[c];
+      p.applyImpulse(c, dP, v);
+      P[c] = P_new;
+      change2 += dP.squaredNorm();
+      size2 += P_new.squaredNorm();
+    }
+    stats.iterations = it + 1;
+    if (relative(change2, size2) < settings.tolerance) {
+      stats.residual = coulombResidual(p, P, v);
+      if (stats.residual < settings.tolerance) {
+        stats.status = SolverStatus::Converged;
+        return stats;
+      }
+    }
+  }
+  stats.residual = coulombResidual(p, P, v);
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  if (!v.allFinite()) stats.status = SolverStatus::Failed;
+  return stats;
+}
+
+// ---------------------------------------------------------------------------------------
+// scheme B, stage 5a: normals scaled to unit M^-1 norm, s_c = sqrt(W_NN,c); Lambda = s lambda
+// ---------------------------------------------------------------------------------------
+
+namespace {
+double normalResidual(const ContactProblem& p, const std::vector<double>& lambda_N,
+                      const VectorX& v) {
+  double f2 = 0.0, scale2 = 0.0;
+  for (int c = 0; c < p.size(); ++c) {
+    const double s = std::sqrt(p.delassus[c](0, 0));
+    const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / s;
+    const double Lambda = s * lambda_N[c];
+    const double f = Lambda - std::max(Lambda - xi, 0.0);
+    f2 += f * f;
+    scale2 += std::max(Lambda * Lambda, xi * xi);
+  }
+  return relative(f2, scale2);
+}
+}  // namespace
+
+NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings,
+                           std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws) {
+  NlgsStats stats;
+  const int n = p.size();
+  for (int c = 0; c < n; ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
+  if (n == 0) return stats;
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it);
+    double change2 = 0.0, size2 = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const int c = ws.order[k];
+      // unit diagonal: the exact local solve is a clamp
+      const double s = std::sqrt(p.delassus[c](0, 0));
+      const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / s;
+      const double Lambda = s * lambda_N[c];
+      const double Lambda_new = std::max(Lambda - settings.relaxation * xi, 0.0);
+      const double d_lambda = (Lambda_new - Lambda) / s;
+      p.applyImpulse(c, Vector3(d_lambda, 0, 0), v);
+      lambda_N[c] += d_lambda;
+      change2 += (Lambda_new - Lambda) * (Lambda_new - Lambda);
+      size2 += Lambda_new * Lambda_new;
+    }
+    stats.iterations = it + 1;
+    if (relative(change2, size2) < settings.tolerance) {
+      stats.residual = normalResidual(p, lambda_N, v);
+      if (stats.residual < settings.tolerance) return stats;
+    }
+  }
+  stats.residual = normalResidual(p, lambda_N, v);
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  if (!v.allFinite()) stats.status = SolverStatus::Failed;
+  return stats;
+}
+
+// ---------------------------------------------------------------------------------------
+// scheme B, stage 5b
+// ---------------------------------------------------------------------------------------
+
+namespace {
+
+// argmin over |y| <= radius of 1/2 (y - y0)^T A (y - y0) + b^T (y - y0), A SPD 2x2: the
+// unconstrained minimizer, or the boundary point where (A + nu I) y = A y0 - b, nu >= 0,
+// found by bisection on nu (|y(nu)| decreases with nu).
+Vector2 minimizeOnDisc(const Matrix2& A, const Vector2& y0, const Vector2& b, double radius) {
+  const Vector2 rhs = A * y0 - b;
+  Vector2 y = A.ldlt().solve(rhs);
+  if (y.norm() <= radius) return y;
+  if (radius <= 0.0) return Vector2::Zero();
+  double lo = 0.0, hi = rhs.norm() / radius;  // at nu = hi, |y| <= |rhs| / nu = radius
+  for (int it = 0; it < 100; ++it) {
+    const double nu = 0.5 * (lo + hi);
+    y = (A + nu * Matrix2::Identity()).ldlt().solve(rhs);
+    (y.norm() > radius ? lo : hi) = nu;
+  }
+  y = (A + hi * Matrix2::Identity()).ldlt().solve(rhs);
+  return y * std::min(1.0, radius / y.norm());
+}
+
+struct FrictionBlock {
+  Vector2 coupling;  // W_TN / W_NN
+  Matrix2 schur;     // W_TT - W_TN W_NT / W_NN
+};
+
+FrictionBlock frictionBlock(const ContactProblem& p, int c) {
+  const Matrix3& W = p.delassus[c];
+  FrictionBlock b;
+  b.coupling = W.block<2, 1>(1, 0) / W(0, 0);
+  b.schur = W.block<2, 2>(1, 1) - W.block<2, 1>(1, 0) * W.block<1, 2>(0, 1) / W(0, 0);
+  if (p.dimension == 2) {
+    b.coupling.y() = 0.0;
+    b.schur(0, 1) = b.schur(1, 0) = 0.0;
+    b.schur(1, 1) = 1.0;  // unused direction, kept invertible
+  }
+  return b;
+}
+
+}  // namespace
+
+NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settings,
+                             const FrictionStageOptions& options, std::vector<double>& lambda_N,
+                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws) {
+  NlgsStats stats;
+  const int n = p.size();
+  const int dT = p.dimension - 1;
+  // thresholds frozen from stage 5a; the normal velocities of closed contacts (GLOBAL)
+  // are held at their stage-5a values
+  std::fill(ws.delta.begin(), ws.delta.end(), 0.0);
+  for (int c = 0; c < n; ++c) {
+    const Matrix3& W = p.delassus[c];
+    double S = p.friction[c] * lambda_N[c];
+    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
+      S *= std::sqrt(W(0, 0) / frictionBlock(p, c).schur(0, 0));
+    ws.threshold[c] = S;
+    ws.held_normal[c] = p.localVelocity(c, v).x();
+  }
+  auto tangentMap = [&](int c, const Vector2& dl) {
+    // impulse in (normal, tangents) whose generalized force is the chosen tangent times dl
+    // in 2D the second tangent component of dl and of the coupling is zero
+    Vector3 dP(0.0, dl.x(), dT == 2 ? dl.y() : 0.0);
+    if (options.tangents == TangentMode::Local) dP.x() = -frictionBlock(p, c).coupling.dot(dl);
+    return dP;
+  };
+  for (int c = 0; c < n; ++c) p.applyImpulse(c, tangentMap(c, lambda_T[c]), v);
+  bool any = false;
+  for (int c = 0; c < n; ++c) any = any || ws.threshold[c] > 0.0;
+  if (!any) return stats;
+
+  auto sweep = [&](bool residual_only, double& change2, double& size2) {
+    double f2 = 0.0, scale2 = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const int c = ws.order[k];
+      if (ws.threshold[c] <= 0.0 && ws.delta[c] == 0.0) continue;
+      const FrictionBlock b = frictionBlock(p, c);
+      const Matrix3& W = p.delassus[c];
+      const Vector3 u = p.localVelocity(c, v);
+      Vector2 uT(u.y(), dT == 2 ? u.z() : 0.0);
+      Matrix2 A = b.schur;
+      bool bilateral = false;
+      double drift = 0.0;
+      switch (options.tangents) {
+        case TangentMode::Global:
+          bilateral = ws.threshold[c] > 0.0;
+          drift = u.x() - ws.held_normal[c];
+          // eliminating the normal correction leaves the Schur complement
+          uT -= b.coupling * drift;
+          break;
+        case TangentMode::Local:
+          uT -= b.coupling * u.x();
+          break;
+        case TangentMode::None:
+          A = W.block<2, 2>(1, 1);
+          if (p.dimension == 2) {
+            A(0, 1) = A(1, 0) = 0.0;
+            A(1, 1) = 1.0;
+          }
+          break;
+      }
+      double radius = ws.threshold[c];
+      Vector2 target;
+      if (p.dimension == 2) {
+        target = Vector2(std::clamp(lambda_T[c].x() - uT.x() / A(0, 0), -radius, radius), 0.0);
+      } else if (options.threshold == FrictionThreshold::Metric) {
+        // ellipse lambda^T W_TT lambda <= (mu lambda_N)^2 W_NN: a disc in z = L^T lambda
+        const Eigen::LLT<Matrix2> L(W.block<2, 2>(1, 1));
+        const Matrix2 Lt = L.matrixU();
+        const Matrix2 Lt_inv = Lt.inverse();
+        radius *= std::sqrt(W(0, 0));
+        const Vector2 z = minimizeOnDisc(Lt_inv.transpose() * A * Lt_inv, Lt * lambda_T[c],
+                                         Lt_inv.transpose() * uT, radius);
+        target = Lt_inv * z;
+      } else {
+        target = minimizeOnDisc(A, lambda_T[c], uT, radius);
+      }
+      if (residual_only) {
+        const Vector2 f = lambda_T[c] - target;
+        f2 += f.squaredNorm() + (bilateral ? drift * drift / (W(0, 0) * W(0, 0)) : 0.0);
+        scale2 += std::max(lambda_T[c].squaredNorm(), (uT / A(0, 0)).squaredNorm());
+        continue;
+      }
+      const Vector2 dl = settings.relaxation * (target - lambda_T[c]);
+      Vector3 dP = tangentMap(c, dl);
+      if (bilateral) {
+        // keep this contact's normal velocity at its stage-5a value
+        const double dd = -(drift + W.block<1, 2>(0, 1).dot(dl)) / W(0, 0);
+        dP.x() += dd;
+        ws.delta[c] += dd;
+      }
+      p.applyImpulse(c, dP, v);
+      lambda_T[c] += dl;
+      change2 += dP.squaredNorm();
+      size2 += lambda_T[c].squaredNorm() + ws.delta[c] * ws.delta[c];
+    }
+    return relative(f2, scale2);
+  };
+
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it);
+    double change2 = 0.0, size2 = 0.0;
+    sweep(false, change2, size2);
+    stats.iterations = it + 1;
+    if (relative(change2, size2) < settings.tolerance) {
+      stats.residual = sweep(true, change2, size2);
+      if (stats.residual < settings.tolerance) break;
+    }
+  }
+  if (stats.iterations == settings.max_iterations) {
+    double change2 = 0.0, size2 = 0.0;
+    stats.residual = sweep(true, change2, size2);
+  }
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  if (!v.allFinite()) stats.status = SolverStatus::Failed;
+  // lambda_N out: the whole impulse along W_N (5a, bilateral corrections, and the normal
+  // part of LOCAL tangents), so that (lambda_N, lambda_T) are impulses on the rows H
+  for (int c = 0; c < n; ++c) lambda_N[c] += ws.delta[c] + tangentMap(c, lambda_T[c]).x();
+  return stats;
+}
+
+}  // namespace sweep

@@ -1,0 +1,85 @@
+#pragma once
+// Nonlinear Gauss-Seidel solvers on a ContactProblem, matrix-free: v is kept current and each
+// local update adds M^-1 H_c dP_c (reference sections 2.4-2.5).
+//
+// - solveCoulombNlgs: scheme A's coupled Newton-Coulomb problem, exact local solves.
+// - solveNormalStage: scheme B stage 5a, frictionless shock law on M^-1-normalized normals,
+//   closed-form local update Lambda <- [Lambda - xi]_+.
+// - solveFrictionStage: scheme B stage 5b, friction with thresholds frozen from 5a.
+//
+// Solvers never print and never allocate inside their sweeps (workspaces are sized by
+// prepare(), between steps). Each returns a status and its statistics.
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "integrators/contact_problem.hpp"
+
+namespace sweep {
+
+enum class SolverStatus { Converged, MaxIterations, Failed };
+const char* solverStatusName(SolverStatus status);
+
+struct NlgsSettings {
+  int max_iterations = 3000;
+  // relative natural-map residual, checked once the relative impulse change is below it
+  double tolerance = 1e-6;
+  double relaxation = 1.0;  // omega; 1 is plain Gauss-Seidel, (1, 2) over-relaxation
+  bool shuffle = false;     // random contact order every sweep (seeded, deterministic)
+  std::uint32_t seed = 1;
+
+  void validate(const std::string& owner) const;  // InputError naming the field
+};
+
+struct NlgsStats {
+  SolverStatus status = SolverStatus::Converged;
+  int iterations = 0;
+  double residual = 0.0;   // relative natural-map residual at exit
+  int local_failures = 0;  // local problems without a consistent solution (Painleve cases)
+};
+
+struct NlgsWorkspace {
+  void prepare(int contacts);
+  std::vector<int> order;
+  std::mt19937 rng;
+  std::vector<double> threshold;    // friction stage: mu lambda_N per contact
+  std::vector<double> held_normal;  // friction stage: normal velocity after stage 5a
+  std::vector<double> delta;        // friction stage: bilateral normal corrections
+};
+
+// v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.
+NlgsStats solveCoulombNlgs(const ContactProblem& problem, const NlgsSettings& settings,
+                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& workspace);
+
+// Stage 5a. lambda_N: in the warm start, out the physical normal impulses.
+NlgsStats solveNormalStage(const ContactProblem& problem, const NlgsSettings& settings,
+                           std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& workspace);
+
+// Tangents of scheme B's friction stage (reference 4.3).
+enum class TangentMode {
+  Global,  // tangential reactions M^-1-orthogonal to every closed contact's normal: normal
+           // velocities of closed contacts held fixed by bilateral corrections
+  Local,   // each tangent M^-1-orthogonal to its own normal only
+  None,    // plain tangents (ablation)
+};
+enum class FrictionThreshold {
+  Physical,  // |lambda_T| <= mu lambda_N on physical impulses
+  Metric,    // |R_T|_{M^-1} <= mu |R_N|_{M^-1}
+};
+const char* tangentModeName(TangentMode mode);
+const char* frictionThresholdName(FrictionThreshold threshold);
+
+struct FrictionStageOptions {
+  TangentMode tangents = TangentMode::Global;
+  FrictionThreshold threshold = FrictionThreshold::Physical;
+};
+
+// Stage 5b. lambda_N: the normal impulses of stage 5a (thresholds), returned with the
+// bilateral corrections of GLOBAL mode added. lambda_T: in the warm start, out the tangential
+// impulses. v: in v1 (after stage 5a), out v2.
+NlgsStats solveFrictionStage(const ContactProblem& problem, const NlgsSettings& settings,
+                             const FrictionStageOptions& options, std::vector<double>& lambda_N,
+                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& workspace);
+
+}  // namespace sweep

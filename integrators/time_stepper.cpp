@@ -1,0 +1,223 @@
+#include "integrators/time_stepper.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "framework/configuration.hpp"
+#include "framework/dynamics.hpp"
+#include "framework/energy.hpp"
+#include "framework/error.hpp"
+#include "framework/kinematics.hpp"
+
+namespace sweep {
+
+const char* schemeName(Scheme scheme) {
+  return scheme == Scheme::MoreauJean ? "moreau-jean" : "catching-up";
+}
+
+Scheme schemeFromName(const std::string& name) {
+  if (name == "moreau-jean") return Scheme::MoreauJean;
+  if (name == "catching-up") return Scheme::CatchingUp;
+  throw InputError("scheme must be moreau-jean or catching-up, got '" + name + "'");
+}
+
+void SchemeSettings::validate() const {
+  if (!(std::isfinite(h) && h > 0.0)) {
+    std::ostringstream out;
+    out << "dt must be > 0, got " << h;
+    throw InputError(out.str());
+  }
+  coulomb.validate("moreau_jean.solver");
+  normal_stage.validate("catching_up.normal_stage");
+  friction_stage.validate("catching_up.friction_stage");
+}
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+}  // namespace
+
+TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
+                         const SchemeSettings& settings, AppliedForces forces)
+    : model_(model),
+      cmodel_(cmodel),
+      settings_(settings),
+      forces_(std::move(forces)),
+      data_(model),
+      cdata_(model, cmodel),
+      problem_ws_(model),
+      q_(model.neutralConfiguration()),
+      v_(VectorX::Zero(model.nv)),
+      q_m_(q_),
+      v_free_(v_),
+      tau_(VectorX::Zero(model.nv)) {
+  settings_.validate();
+}
+
+void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
+  if (q.size() != model_.nq || v.size() != model_.nv || !q.allFinite() || !v.allFinite())
+    throw InputError("initial state: q must have " + std::to_string(model_.nq) + " and v " +
+                     std::to_string(model_.nv) + " finite entries");
+  t_ = t;
+  q_ = q;
+  v_ = v;
+  stats_ = StepStats{};
+  stats_.t = t;
+  impulse_.clear();
+  previous_impulse_.clear();
+  cdata_ = ContactData(model_, cmodel_);
+}
+
+double TimeStepper::energy() {
+  forwardKinematics(model_, data_, q_, v_);
+  return kineticEnergy(model_, data_) + potentialEnergy(model_, data_);
+}
+
+const StepStats& TimeStepper::step() {
+  stats_.step += 1;
+  midpoint();      // 1
+  detect();        // 2
+  freeVelocity();  // 4 (M(q_m) is factored here; stage 3 needs it)
+  assemble();      // 3
+  if (settings_.scheme == Scheme::MoreauJean)
+    solveMoreauJean();  // 5 (A)
+  else
+    solveCatchingUp();  // 5 (B)
+  update();             // 6
+  diagnose();
+  return stats_;
+}
+
+void TimeStepper::midpoint() {
+  integrate(model_, q_, 0.5 * settings_.h * v_, q_m_);
+}
+
+void TimeStepper::detect() {
+  const auto start = Clock::now();
+  const double t_m = t_ + 0.5 * settings_.h;
+  forwardKinematics(model_, data_, q_m_, v_);
+  const double margin = detectionMargin(model_, data_, cmodel_, settings_.h, t_m);
+  detectContacts(model_, data_, cmodel_, cdata_, t_m, margin);
+  std::swap(impulse_, previous_impulse_);
+  impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
+  stats_.candidates = static_cast<int>(cdata_.contacts.size());
+  stats_.t_detect = seconds(start);
+}
+
+void TimeStepper::freeVelocity() {
+  const auto start = Clock::now();
+  const double t_m = t_ + 0.5 * settings_.h;
+  tau_.setZero();
+  if (forces_) forces_(t_m, q_m_, v_, tau_);
+  // crba skips constant mass blocks (particles); forwardDynamics factors the others
+  v_free_ = v_ + settings_.h * forwardDynamics(model_, data_, q_m_, v_, tau_);
+  stats_.t_assemble = seconds(start);
+}
+
+void TimeStepper::assemble() {
+  const auto start = Clock::now();
+  const double t_m = t_ + 0.5 * settings_.h;
+  // forwardDynamics left the kinematics of data at q_m
+  assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m);
+  assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
+                         v_, problem_, problem_ws_);
+  const int n = problem_.size();
+  stats_.active = n;
+  nlgs_ws_.prepare(n);
+  // warm start from the previous step's impulses of the same contacts
+  P_.assign(n, Vector3::Zero());
+  for (int c = 0; c < n; ++c) {
+    const int previous = cdata_.contacts[problem_.contact[c]].previous;
+    if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()))
+      P_[c] = previous_impulse_[previous];
+  }
+  stats_.t_assemble += seconds(start);
+}
+
+void TimeStepper::solveMoreauJean() {
+  const auto start = Clock::now();
+  VectorX& v = v_free_;  // becomes v_{k+1}
+  const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_);
+  stats_.iterations_stage1 = s.iterations;
+  stats_.iterations_stage2 = 0;
+  stats_.residual = s.residual;
+  stats_.status = s.status;
+  stats_.cap_hit = s.status == SolverStatus::MaxIterations;
+  stats_.local_failures = s.local_failures;
+  stats_.t_solve = seconds(start);
+}
+
+void TimeStepper::solveCatchingUp() {
+  const auto start = Clock::now();
+  const int n = problem_.size();
+  VectorX& v = v_free_;
+  lambda_N_.resize(n);
+  lambda_T_.resize(n);
+  for (int c = 0; c < n; ++c) {
+    lambda_N_[c] = P_[c].x();
+    lambda_T_[c] = P_[c].tail<2>();
+  }
+  // 5a: frictionless inelastic shock on the scaled normals
+  const NlgsStats normal =
+      solveNormalStage(problem_, settings_.normal_stage, lambda_N_, v, nlgs_ws_);
+  stats_.iterations_stage1 = normal.iterations;
+  stats_.residual = normal.residual;
+  stats_.status = normal.status;
+  stats_.cap_hit = normal.status == SolverStatus::MaxIterations;
+  stats_.iterations_stage2 = 0;
+  // 5b: friction with frozen thresholds, skipped when no contact can have friction
+  if (!cmodel_.frictionless) {
+    const NlgsStats friction = solveFrictionStage(
+        problem_, settings_.friction_stage, settings_.friction, lambda_N_, lambda_T_, v, nlgs_ws_);
+    stats_.iterations_stage2 = friction.iterations;
+    stats_.residual = std::max(stats_.residual, friction.residual);
+    stats_.cap_hit = stats_.cap_hit || friction.status == SolverStatus::MaxIterations;
+    if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
+  } else {
+    for (Vector2& l : lambda_T_) l.setZero();
+  }
+  for (int c = 0; c < n; ++c) P_[c] = Vector3(lambda_N_[c], lambda_T_[c].x(), lambda_T_[c].y());
+  if (problem_.dimension == 2)
+    for (Vector3& p : P_) p.z() = 0.0;
+  stats_.local_failures = 0;
+  stats_.t_solve = seconds(start);
+}
+
+void TimeStepper::update() {
+  const auto start = Clock::now();
+  const int n = problem_.size();
+  // contact work with the local velocities of H(q_m) at the start and end of the step
+  stats_.work_normal = stats_.work_tangent = 0.0;
+  for (int c = 0; c < n; ++c) {
+    const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + problem_.localVelocity(c, v_free_));
+    stats_.work_normal += P_[c].x() * u_mean.x();
+    stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
+    impulse_[problem_.contact[c]] = P_[c];
+  }
+  v_ = v_free_;
+  integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);
+  normalizeConfiguration(model_, q_);
+  t_ += settings_.h;
+  stats_.t = t_;
+  stats_.t_update = seconds(start);
+}
+
+void TimeStepper::diagnose() {
+  forwardKinematics(model_, data_, q_, v_);
+  stats_.kinetic = kineticEnergy(model_, data_);
+  stats_.potential = potentialEnergy(model_, data_);
+  evaluateContactGaps(model_, data_, cmodel_, cdata_, t_, end_gap_);
+  stats_.penetration_max = stats_.penetration_sum = 0.0;
+  stats_.penetration_count = 0;
+  for (double g : end_gap_) {
+    if (!(g < 0.0)) continue;
+    stats_.penetration_max = std::max(stats_.penetration_max, -g);
+    stats_.penetration_sum += -g;
+    ++stats_.penetration_count;
+  }
+}
+
+}  // namespace sweep

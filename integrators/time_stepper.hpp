@@ -1,0 +1,125 @@
+#pragma once
+// The two NSCD time-stepping schemes on one pipeline. Steps 1, 2, 4 and 6 are shared; steps
+// 3 and 5 differ (reference: ../shared/reference/schemes.md, docs/schemes.md).
+//
+// Scheme A, Jean-Moreau (Moreau 1999, "Numerical aspects of the sweeping process", CMAME 177;
+// Jean 1999, "The non-smooth contact dynamics method", CMAME 177), midpoint form:
+//   1  q_m = q_k (+) h/2 v_k,  t_m = t_k + h/2
+//   2  contacts, gaps g, frames at q_m
+//   3  H_c = [W_N W_T](q_m), W_cc = H_c^T M(q_m)^-1 H_c
+//   4  v_free = v_k + h M(q_m)^-1 (tau - b(q_m, v_k))
+//   5  v_{k+1} = v_free + M^-1 sum_c H_c P_c with, for every c in the index set,
+//      U*_N = U_N(k+1) + e U_N(k) (+ gap term),  0 <= U*_N _|_ P_N >= 0  and Coulomb's law on
+//      P_T, solved together by NLGS (cap 3000)
+//   6  q_{k+1} = q_m (+) h/2 v_{k+1}
+//
+// Scheme B, the staggered configuration-space "catching-up" scheme (Charles, Casenave &
+// Glocker 2018, "A catching-up algorithm for multibody dynamics with impacts and dry
+// friction", CMAME 334, 208-237), as reconstructed in the reference, section 4:
+//   3  normals scaled to unit M^-1 norm, nhat_c = W_N,c / sqrt(W_NN,c); tangents made
+//      M^-1-orthogonal to the normals (flag: global | local | none)
+//   5a frictionless shock law on the scaled normals, projected Gauss-Seidel (cap 1500):
+//      0 <= nhat^T v1 + e-term (+ gap term) _|_ Lambda >= 0
+//   5b friction with thresholds S_c = mu_c lambda_N,c frozen from 5a, maximal dissipation on
+//      the tangential part of the motion (cap 1500); in global mode the normal velocities of
+//      closed contacts are held at their 5a values by bilateral corrections.
+#include <functional>
+#include <vector>
+
+#include "contact/detection.hpp"
+#include "integrators/contact_problem.hpp"
+#include "integrators/nlgs.hpp"
+
+namespace sweep {
+
+enum class Scheme { MoreauJean, CatchingUp };
+const char* schemeName(Scheme scheme);           // "moreau-jean", "catching-up"
+Scheme schemeFromName(const std::string& name);  // InputError if unknown
+
+struct SchemeSettings {
+  Scheme scheme = Scheme::MoreauJean;
+  double h = 1e-4;
+  NormalLaw normal_law = NormalLaw::Vel;
+  NlgsSettings coulomb{3000};         // scheme A
+  NlgsSettings normal_stage{1500};    // scheme B, 5a
+  NlgsSettings friction_stage{1500};  // scheme B, 5b
+  FrictionStageOptions friction;      // scheme B: tangents, threshold
+
+  void validate() const;
+};
+
+// Per-step diagnostics (reference section 5).
+struct StepStats {
+  long step = 0;
+  double t = 0.0;  // time at the end of the step
+  int candidates = 0;
+  int active = 0;             // contacts in the solve
+  int iterations_stage1 = 0;  // A: the coupled solve; B: normal stage
+  int iterations_stage2 = 0;  // B: friction stage (0 when skipped)
+  double residual = 0.0;      // largest exit residual of the stages
+  bool cap_hit = false;
+  SolverStatus status = SolverStatus::Converged;
+  int local_failures = 0;
+  double penetration_max = 0.0;  // max over contacts of max(0, -g(q_{k+1}))
+  double penetration_sum = 0.0;
+  int penetration_count = 0;
+  double kinetic = 0.0;  // at the end of the step
+  double potential = 0.0;
+  double work_normal = 0.0;   // sum_c P_N (U_N(k) + U_N(k+1)) / 2
+  double work_tangent = 0.0;  // sum_c P_T . (U_T(k) + U_T(k+1)) / 2
+  double t_detect = 0.0, t_assemble = 0.0, t_solve = 0.0, t_update = 0.0;  // seconds
+};
+
+// Applied generalized forces tau(t, q, v) besides gravity (which the Model carries).
+using AppliedForces =
+    std::function<void(double t, const VectorX& q, const VectorX& v, VectorX& tau)>;
+
+class TimeStepper {
+ public:
+  TimeStepper(const Model& model, const ContactModel& cmodel, const SchemeSettings& settings,
+              AppliedForces forces = {});
+
+  void reset(double t, const VectorX& q, const VectorX& v);
+  const StepStats& step();
+
+  double time() const { return t_; }
+  const VectorX& q() const { return q_; }
+  const VectorX& v() const { return v_; }
+  const StepStats& stats() const { return stats_; }
+  const SchemeSettings& settings() const { return settings_; }
+  const ContactData& contactData() const { return cdata_; }
+  // impulse (normal, tangents) of each contact of contactData().contacts in the last step
+  const std::vector<Vector3>& impulses() const { return impulse_; }
+  double energy();  // kinetic + potential at the current state
+
+ private:
+  void midpoint();         // 1
+  void detect();           // 2
+  void freeVelocity();     // 4
+  void assemble();         // 3
+  void solveMoreauJean();  // 5, scheme A
+  void solveCatchingUp();  // 5, scheme B
+  void update();           // 6
+  void diagnose();
+
+  const Model& model_;
+  const ContactModel& cmodel_;
+  SchemeSettings settings_;
+  AppliedForces forces_;
+  Data data_;
+  ContactData cdata_;
+  ContactProblem problem_;
+  ContactProblemWorkspace problem_ws_;
+  NlgsWorkspace nlgs_ws_;
+  StepStats stats_;
+
+  double t_ = 0.0;
+  VectorX q_, v_, q_m_, v_free_, tau_;
+  std::vector<Vector3> impulse_, previous_impulse_;  // aligned with contacts / previous
+  std::vector<Vector3> P_;                           // problem rows
+  std::vector<double> lambda_N_;
+  std::vector<Vector2> lambda_T_;
+  std::vector<double> end_gap_;
+};
+
+}  // namespace sweep

@@ -1,0 +1,200 @@
+// Both NSCD schemes on small systems with exact answers (reference sections 5 and 6).
+#include "integrators/time_stepper.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "framework/kinematics.hpp"
+#include "models/rigid_bodies.hpp"
+
+namespace sweep {
+namespace {
+
+class BothSchemes : public ::testing::TestWithParam<Scheme> {
+ protected:
+  SchemeSettings settings(double h) const {
+    SchemeSettings s;
+    s.scheme = GetParam();
+    s.h = h;
+    s.coulomb.tolerance = s.normal_stage.tolerance = s.friction_stage.tolerance = 1e-12;
+    return s;
+  }
+};
+
+// A sphere of radius r on a free body above a floor half-space.
+struct BallOnFloor {
+  Model model;
+  ContactModel cmodel;
+  BallOnFloor(double mass, double radius, double mu, double e, const Vector3& gravity) {
+    ModelBuilder mb("ball on floor");
+    addFreeBody(mb, "ball", solidSphereInertia(mass, radius));
+    mb.setGravity(gravity);
+    model = mb.build();
+    ContactModelBuilder cb(model);
+    cb.materials().setDefaultLaw({mu, e});
+    cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(radius));
+    cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+    cmodel = cb.build();
+  }
+  VectorX at(double height) const {
+    VectorX q = model.neutralConfiguration();
+    q[2] = height;
+    return q;
+  }
+};
+
+// At rest on a plane: the impulse is m g h every step, and nothing drifts.
+TEST_P(BothSchemes, BallAtRestOnAPlane) {
+  const double m = 2.0, r = 0.1, g = 9.81, h = 1e-3;
+  const BallOnFloor scene(m, r, 0.5, 0.0, Vector3(0, 0, -g));
+  TimeStepper stepper(scene.model, scene.cmodel, settings(h));
+  stepper.reset(0.0, scene.at(r), VectorX::Zero(6));
+  for (int k = 0; k < 100000; ++k) {
+    const StepStats& s = stepper.step();
+    ASSERT_EQ(s.active, 1) << "step " << k;
+    if (k > 0) {
+      // warm started from the exact impulse: converged in the first sweep
+      ASSERT_LE(s.iterations_stage1, 1) << "step " << k;
+    }
+  }
+  EXPECT_NEAR(stepper.impulses()[0].x(), m * g * h, 1e-12 * m * g * h);
+  EXPECT_LT(std::abs(stepper.q()[2] - r), 1e-12);
+  EXPECT_LT(stepper.v().norm(), 1e-12);
+}
+
+// A point mass (two prismatic joints, no rotation) on an incline of angle a: sticks exactly
+// when tan a <= mu, slides with g (sin a - mu cos a) otherwise.
+struct PointMassOnIncline {
+  Model model;
+  ContactModel cmodel;
+  double angle;
+  PointMassOnIncline(double a, double mu) : angle(a) {
+    ModelBuilder mb("point mass on incline");
+    const int carriage =
+        mb.addBody(-1, "x", Joint::prismatic(Vector3::UnitX()), Pose{}, Inertia{}, "carriage");
+    mb.addBody(carriage, "y", Joint::prismatic(Vector3::UnitY()), Pose{},
+               Inertia{1.5, Vector3::Zero(), Matrix3::Identity() * 1e-3}, "mass");
+    mb.setGravity(Vector3(0, -9.81, 0));
+    model = mb.build();
+    ContactModelBuilder cb(model);
+    cb.materials().setDefaultLaw({mu, 0.0});
+    cb.addGeometry("mass", BodyRef::dynamic(model.bodyIndex("mass")), Pose::identity(),
+                   Shape::disk(0.05));
+    Pose slope;
+    slope.rotation = Eigen::AngleAxisd(a, Vector3::UnitZ()).toRotationMatrix();
+    cb.addGeometry("slope", BodyRef::world(), slope, Shape::halfPlane());
+    cmodel = cb.build();
+  }
+  // resting on the slope, `along` down the slope from the origin
+  VectorX at(double along) const {
+    const Vector3 down(-std::cos(angle), -std::sin(angle), 0.0);
+    const Vector3 up_normal(-std::sin(angle), std::cos(angle), 0.0);
+    const Vector3 p = along * down + 0.05 * up_normal;
+    VectorX q(2);
+    q << p.x(), p.y();
+    return q;
+  }
+  double along(const VectorX& q) const {
+    return -(q[0] * std::cos(angle) + q[1] * std::sin(angle));
+  }
+};
+
+TEST_P(BothSchemes, PointMassSticksOnIncline) {
+  const double mu = 0.5;
+  const PointMassOnIncline scene(0.99 * std::atan(mu), mu);
+  TimeStepper stepper(scene.model, scene.cmodel, settings(1e-3));
+  stepper.reset(0.0, scene.at(0.0), VectorX::Zero(2));
+  for (int k = 0; k < 100000; ++k) stepper.step();
+  EXPECT_LT(std::abs(scene.along(stepper.q())), 1e-12);
+}
+
+TEST_P(BothSchemes, PointMassSlidesWithCoulombAcceleration) {
+  const double mu = 0.3, a = 0.5, g = 9.81, h = 1e-3;
+  const PointMassOnIncline scene(a, mu);
+  TimeStepper stepper(scene.model, scene.cmodel, settings(h));
+  stepper.reset(0.0, scene.at(0.0), VectorX::Zero(2));
+  // from the second step on the contact is closed (the first may start at a gap of +1e-17)
+  for (int k = 0; k < 10; ++k) stepper.step();
+  const double s0 = scene.along(stepper.q());
+  const Vector3 down(-std::cos(a), -std::sin(a), 0.0);
+  const double v0 = down.head<2>().dot(stepper.v());
+  const int steps = 1000;
+  for (int k = 0; k < steps; ++k) stepper.step();
+  const double acceleration = g * (std::sin(a) - mu * std::cos(a));
+  const double T = steps * h;
+  // the midpoint rule integrates a constant acceleration exactly
+  EXPECT_NEAR(down.head<2>().dot(stepper.v()), v0 + acceleration * T, 1e-9 * acceleration * T);
+  EXPECT_NEAR(scene.along(stepper.q()) - s0, v0 * T + 0.5 * acceleration * T * T,
+              1e-9 * acceleration * T * T);
+  EXPECT_NEAR(v0, acceleration * 10 * h, 1e-9);
+}
+
+// Bouncing ball: at every impact step U_N(k+1) = -e U_N(k), and the energy balance
+// E(k+1) - E(k) = contact work holds to round-off (constant M, gravity).
+TEST_P(BothSchemes, BouncingBallRestitutionAndEnergyIdentity) {
+  const double e = 0.9, h = 1e-3;
+  const BallOnFloor scene(1.0, 0.1, 0.0, e, Vector3(0, 0, -9.81));
+  TimeStepper stepper(scene.model, scene.cmodel, settings(h));
+  stepper.reset(0.0, scene.at(1.0), VectorX::Zero(6));
+  int impacts = 0;
+  double energy = stepper.energy();
+  for (int k = 0; k < 5000; ++k) {
+    const double vz_before = stepper.v()[2];
+    const StepStats& s = stepper.step();
+    const double next_energy = s.kinetic + s.potential;
+    EXPECT_NEAR(next_energy - energy, s.work_normal + s.work_tangent, 1e-12 * std::abs(energy))
+        << "step " << k;
+    energy = next_energy;
+    if (s.active == 1 && stepper.impulses()[0].x() > 0.0) {
+      ++impacts;
+      EXPECT_NEAR(stepper.v()[2], -e * vz_before, 1e-12) << "step " << k;
+      EXPECT_LE(s.work_normal, 1e-15);
+    }
+  }
+  EXPECT_GE(impacts, 5);
+}
+
+// Several balls sliding and spinning on a rough floor, one contact each (W_NT = 0, e = 0):
+// both schemes solve the same Coulomb problem.
+TEST(SchemesAgree, DecoupledContacts) {
+  ModelBuilder mb("balls");
+  for (int i = 0; i < 4; ++i)
+    addFreeBody(mb, "ball" + std::to_string(i), solidSphereInertia(1.0 + i, 0.1));
+  mb.setGravity(Vector3(0, 0, -9.81));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.materials().setDefaultLaw({0.3, 0.0});
+  for (int i = 0; i < 4; ++i)
+    cb.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                   Shape::sphere(0.1));
+  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+  const ContactModel cmodel = cb.build();
+  VectorX q = model.neutralConfiguration(), v = VectorX::Zero(model.nv);
+  for (int i = 0; i < 4; ++i) {
+    q.segment<3>(7 * i) = Vector3(1.0 * i, 0.0, 0.1);
+    v.segment<6>(6 * i) << 1.0 - 0.5 * i, 0.3 * i, -0.2, 5.0 * i, -3.0, 2.0;
+  }
+  std::vector<VectorX> end;
+  for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
+    SchemeSettings s;
+    s.scheme = scheme;
+    s.h = 1e-3;
+    s.coulomb.tolerance = s.normal_stage.tolerance = s.friction_stage.tolerance = 1e-13;
+    TimeStepper stepper(model, cmodel, s);
+    stepper.reset(0.0, q, v);
+    for (int k = 0; k < 500; ++k) stepper.step();
+    end.push_back(stepper.v());
+  }
+  EXPECT_LT((end[0] - end[1]).norm(), 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(Schemes, BothSchemes,
+                         ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
+                         [](const auto& param_info) {
+                           return param_info.param == Scheme::MoreauJean ? "MoreauJean"
+                                                                         : "CatchingUp";
+                         });
+
+}  // namespace
+}  // namespace sweep
