@@ -49,7 +49,10 @@ void NlgsSettings::validate(const std::string& owner) const {
     throw InputError(owner + ".relaxation must be in (0, 2), got " + show(relaxation));
 }
 
-void NlgsWorkspace::prepare(int contacts) {
+void NlgsWorkspace::prepare(int contacts, int nv) {
+  y.resize(contacts);
+  offset.resize(contacts);
+  if (v_normal.size() < nv) v_normal.resize(nv);
   order.resize(contacts);
   threshold.resize(contacts);
   held_normal.resize(contacts);
@@ -264,6 +267,38 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     if (options.tangents == TangentMode::Local) dP.x() = -frictionBlock(p, c).coupling.dot(dl);
     return dP;
   };
+  // Friction acts on the tangential part of the motion, W_T^T (v - v_N), with v_N the
+  // M-projection of v1 on the span of the closed normals: v_N = M^-1 N_A y,
+  // (N_A^T M^-1 N_A) y = N_A^T v1 (reference 4.3, 5b). It is zero for e = 0 with VEL, and
+  // is what keeps KE(v2) <= KE(v1) otherwise. Solved by Gauss-Seidel on the closed set.
+  std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
+  bool needs_projection = false;
+  for (int c = 0; c < n; ++c)
+    needs_projection =
+        needs_projection || (ws.threshold[c] > 0.0 && ws.held_normal[c] != p.known[c].x());
+  if (options.tangents == TangentMode::Global && needs_projection) {
+    if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
+    ws.v_normal.setZero();
+    std::fill(ws.y.begin(), ws.y.end(), 0.0);
+    for (int sweep_count = 0; sweep_count < settings.max_iterations; ++sweep_count) {
+      double change2 = 0.0, size2 = 0.0;
+      for (int c = 0; c < n; ++c) {
+        if (ws.threshold[c] <= 0.0) continue;
+        // residual of W_N^T v_N = W_N^T v1 (the known term cancels)
+        const double r = ws.held_normal[c] - p.localVelocity(c, ws.v_normal).x();
+        const double dy = r / p.delassus[c](0, 0);
+        p.applyImpulse(c, Vector3(dy, 0, 0), ws.v_normal);
+        ws.y[c] += dy;
+        change2 += dy * dy;
+        size2 += ws.y[c] * ws.y[c];
+      }
+      if (relative(change2, size2) < settings.tolerance) break;
+    }
+    for (int c = 0; c < n; ++c) {
+      const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
+      ws.offset[c] = Vector2(u.y(), u.z());
+    }
+  }
   for (int c = 0; c < n; ++c) p.applyImpulse(c, tangentMap(c, lambda_T[c]), v);
   bool any = false;
   for (int c = 0; c < n; ++c) any = any || ws.threshold[c] > 0.0;
@@ -278,6 +313,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       const Matrix3& W = p.delassus[c];
       const Vector3 u = p.localVelocity(c, v);
       Vector2 uT(u.y(), dT == 2 ? u.z() : 0.0);
+      uT -= ws.offset[c];
       Matrix2 A = b.schur;
       bool bilateral = false;
       double drift = 0.0;

@@ -40,12 +40,15 @@ struct NlgsStats {
 };
 
 struct NlgsWorkspace {
-  void prepare(int contacts);
+  void prepare(int contacts, int nv = 0);
   std::vector<int> order;
   std::mt19937 rng;
   std::vector<double> threshold;    // friction stage: mu lambda_N per contact
   std::vector<double> held_normal;  // friction stage: normal velocity after stage 5a
   std::vector<double> delta;        // friction stage: bilateral normal corrections
+  std::vector<double> y;            // friction stage: normal-velocity part of v1, N_A y
+  std::vector<Vector2> offset;      // friction stage: W_T^T v_N per contact
+  VectorX v_normal;                 // friction stage: v_N = M^-1 N_A y
 };
 
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.

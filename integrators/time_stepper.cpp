@@ -126,7 +126,7 @@ void TimeStepper::assemble() {
                          v_, problem_, problem_ws_);
   const int n = problem_.size();
   stats_.active = n;
-  nlgs_ws_.prepare(n);
+  nlgs_ws_.prepare(n, model_.nv);
   // warm start from the previous step's impulses of the same contacts
   P_.assign(n, Vector3::Zero());
   for (int c = 0; c < n; ++c) {

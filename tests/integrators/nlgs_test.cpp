@@ -1,0 +1,194 @@
+// The solvers on hand-built contact problems with known answers (reference section 6).
+#include "integrators/nlgs.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "integrators/time_stepper.hpp"
+#include "models/rigid_bodies.hpp"
+
+namespace sweep {
+namespace {
+
+// One contact over a few dofs with M = diag(mass): rows W_N, W_T given densely.
+ContactProblem oneContact(const VectorX& WN, const VectorX& WT, const VectorX& mass,
+                          const VectorX& v_start, double mu, double e) {
+  ContactProblem p;
+  p.dimension = 2;
+  p.contact = {0};
+  p.begin = {0};
+  p.minv_begin = {0};
+  for (int i = 0; i < WN.size(); ++i) {
+    p.dof.push_back(i);
+    p.h.emplace_back(WN[i], WT[i], 0.0);
+    p.minv_dof.push_back(i);
+    p.minv_h.emplace_back(WN[i] / mass[i], WT[i] / mass[i], 0.0);
+  }
+  p.begin.push_back(static_cast<int>(p.dof.size()));
+  p.minv_begin.push_back(static_cast<int>(p.dof.size()));
+  Matrix3 W = Matrix3::Zero();
+  for (int i = 0; i < WN.size(); ++i) {
+    const Vector3 row(WN[i], WT[i], 0.0);
+    W += row * row.transpose() / mass[i];
+  }
+  p.delassus = {W};
+  p.known = {Vector3::Zero()};
+  p.gap = {0.0};
+  p.friction = {mu};
+  p.restitution = {e};
+  p.velocity_start = {p.localVelocity(0, v_start)};
+  p.normal_bias = {e * p.velocity_start[0].x()};
+  return p;
+}
+
+NlgsSettings tight(int cap) {
+  NlgsSettings s;
+  s.max_iterations = cap;
+  s.tolerance = 1e-13;
+  return s;
+}
+
+// V8, Kane-type energy gain: M = I, W_N = (1, 0), W_T = (0.9, sqrt(0.19)).
+struct Kane {
+  VectorX WN = Eigen::Vector2d(1.0, 0.0);
+  VectorX WT = Eigen::Vector2d(0.9, std::sqrt(0.19));
+  VectorX mass = Eigen::Vector2d(1.0, 1.0);
+  VectorX v_minus = Eigen::Vector2d(-1.0, -0.1 / std::sqrt(0.19));  // U_N = U_T = -1
+};
+
+TEST(KaneImpact, MoreauJeanGainsEnergy) {
+  const Kane k;
+  for (const auto& [mu, e, expected_dKE] :
+       {std::tuple{0.5, 1.0, 0.4959}, std::tuple{0.3, 1.0, 0.1464}, std::tuple{0.5, 0.5, -0.062}}) {
+    const ContactProblem p = oneContact(k.WN, k.WT, k.mass, k.v_minus, mu, e);
+    std::vector<Vector3> P = {Vector3::Zero()};
+    VectorX v = k.v_minus;
+    NlgsWorkspace ws;
+    ws.prepare(1, static_cast<int>(v.size()));
+    const NlgsStats s = solveCoulombNlgs(p, tight(3000), P, v, ws);
+    EXPECT_EQ(s.status, SolverStatus::Converged);
+    const double dKE = 0.5 * v.squaredNorm() - 0.5 * k.v_minus.squaredNorm();
+    EXPECT_NEAR(dKE, expected_dKE, 1e-3) << "mu " << mu << " e " << e;
+    if (mu == 0.5 && e == 1.0) {
+      EXPECT_NEAR(P[0].x(), 3.6364, 1e-4);
+      EXPECT_NEAR(P[0].y(), -1.8182, 1e-4);
+      EXPECT_NEAR(v[0], 1.0, 1e-4);
+      EXPECT_NEAR(v[1], -1.02195, 1e-4);
+    }
+  }
+}
+
+TEST(KaneImpact, CatchingUpDoesNotGainEnergy) {
+  const Kane k;
+  for (TangentMode mode : {TangentMode::Global, TangentMode::Local}) {
+    const ContactProblem p = oneContact(k.WN, k.WT, k.mass, k.v_minus, 0.5, 1.0);
+    std::vector<double> lambda_N = {0.0};
+    std::vector<Vector2> lambda_T = {Vector2::Zero()};
+    VectorX v = k.v_minus;
+    NlgsWorkspace ws;
+    ws.prepare(1, static_cast<int>(v.size()));
+    solveNormalStage(p, tight(1500), lambda_N, v, ws);
+    EXPECT_NEAR(lambda_N[0], 2.0, 1e-12);  // stage 1: P_N = 2, v1 = (1, -0.2294)
+    EXPECT_NEAR(v[0], 1.0, 1e-12);
+    FrictionStageOptions options;
+    options.tangents = mode;
+    solveFrictionStage(p, tight(1500), options, lambda_N, lambda_T, v, ws);
+    // stage 2 sticks on the tangent M^-1-orthogonal to the normal: v+ = (1, 0)
+    EXPECT_NEAR(v[0], 1.0, 1e-9) << tangentModeName(mode);
+    EXPECT_NEAR(v[1], 0.0, 1e-9) << tangentModeName(mode);
+    EXPECT_LE(0.5 * v.squaredNorm(), 0.5 * k.v_minus.squaredNorm());
+  }
+}
+
+// V7, Painleve rod: m = 1, half-length l = 0.5 (I = m l^2 / 3), tan(theta) = 2, mu = 1.5,
+// sliding at U_T = -1 onto the floor. A jams with an O(1) impulse; B does not.
+struct Painleve {
+  double th = std::atan(2.0), l = 0.5, h = 1e-4, g = 9.81;
+  VectorX WN = Eigen::Vector3d(0.0, 1.0, -l* std::cos(th));
+  VectorX WT = Eigen::Vector3d(1.0, 0.0, l* std::sin(th));
+  VectorX mass = Eigen::Vector3d(1.0, 1.0, l* l / 3.0);
+  VectorX v_minus = Eigen::Vector3d(-1.0, 0.0, 0.0);
+  VectorX v_free = Eigen::Vector3d(-1.0, -h* g, 0.0);
+};
+
+TEST(PainleveRod, MoreauJeanJamsWithAFiniteImpulse) {
+  const Painleve r;
+  ContactProblem p = oneContact(r.WN, r.WT, r.mass, r.v_minus, 1.5, 0.0);
+  EXPECT_NEAR(p.delassus[0](0, 0), 1.6, 1e-12);
+  EXPECT_NEAR(p.delassus[0](0, 1), -1.2, 1e-12);
+  EXPECT_NEAR(p.delassus[0](1, 1), 3.4, 1e-12);
+  std::vector<Vector3> P = {Vector3::Zero()};
+  VectorX v = r.v_free;
+  NlgsWorkspace ws;
+  ws.prepare(1, static_cast<int>(v.size()));
+  solveCoulombNlgs(p, tight(3000), P, v, ws);
+  // stick, P = (0.3, 0.4) + O(h): a tangential impact, not h times a force
+  EXPECT_NEAR(P[0].x(), 0.3, 1e-3);
+  EXPECT_NEAR(P[0].y(), 0.4, 1e-3);
+  EXPECT_NEAR(v[0], -0.6, 1e-3);
+  EXPECT_NEAR(v[1], 0.3, 1e-3);
+}
+
+TEST(PainleveRod, CatchingUpSlidesWithoutJump) {
+  const Painleve r;
+  ContactProblem p = oneContact(r.WN, r.WT, r.mass, r.v_minus, 1.5, 0.0);
+  std::vector<double> lambda_N = {0.0};
+  std::vector<Vector2> lambda_T = {Vector2::Zero()};
+  VectorX v = r.v_free;
+  NlgsWorkspace ws;
+  ws.prepare(1, static_cast<int>(v.size()));
+  solveNormalStage(p, tight(1500), lambda_N, v, ws);
+  // the frictionless normal impulse: h N0 with N0 = m g / (1 + 3 cos^2 th) = 0.625 m g
+  EXPECT_NEAR(lambda_N[0], r.h * 0.625 * r.g, 1e-12);
+  solveFrictionStage(p, tight(1500), FrictionStageOptions{}, lambda_N, lambda_T, v, ws);
+  // sliding continues: the sliding velocity changes by W_TN lambda_N (stage 5a) plus
+  // Atil mu lambda_N (stage 5b, Atil = W_TT - W_NT^2 / W_NN = 2.5), both O(h)
+  const double lambda_1 = r.h * 0.625 * r.g;
+  EXPECT_NEAR(r.WT.dot(v), -1.0 - 1.2 * lambda_1 + 2.5 * 1.5 * lambda_1, 1e-12);
+  EXPECT_LT(r.WT.dot(v), 0.0);
+  // no O(1) normal impulse: the bilateral correction keeps U_N at its stage-5a value
+  EXPECT_NEAR(r.WN.dot(v), 0.0, 1e-12);
+  EXPECT_LT(lambda_N[0], 3.0 * lambda_1);
+}
+
+// V6, Newton's cradle: three equal touching disks, the first at speed v, frictionless.
+std::vector<double> cradle(Scheme scheme, double e) {
+  ModelBuilder mb("cradle");
+  for (int i = 0; i < 3; ++i)
+    addPlanarBody(mb, "ball" + std::to_string(i), solidDiskInertia(1, 0.5));
+  mb.setGravity(Vector3::Zero());
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.materials().setDefaultLaw({0.0, e});
+  for (int i = 0; i < 3; ++i)
+    cb.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                   Shape::disk(0.5));
+  const ContactModel cmodel = cb.build();
+  SchemeSettings s;
+  s.scheme = scheme;
+  s.h = 1e-3;
+  s.coulomb.tolerance = s.normal_stage.tolerance = 1e-14;
+  TimeStepper stepper(model, cmodel, s);
+  VectorX q = VectorX::Zero(9), v = VectorX::Zero(9);
+  q[3] = 1.0;
+  q[6] = 2.0;
+  v[0] = 1.0;
+  stepper.reset(0.0, q, v);
+  stepper.step();
+  return {stepper.v()[0], stepper.v()[3], stepper.v()[6]};
+}
+
+TEST(NewtonsCradle, SimultaneousImpactLaws) {
+  const std::vector<double> elastic = cradle(Scheme::MoreauJean, 1.0);
+  EXPECT_NEAR(elastic[0], -1.0 / 3.0, 1e-10);
+  EXPECT_NEAR(elastic[1], 2.0 / 3.0, 1e-10);
+  EXPECT_NEAR(elastic[2], 2.0 / 3.0, 1e-10);
+  for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
+    const std::vector<double> plastic = cradle(scheme, 0.0);
+    for (double vi : plastic) EXPECT_NEAR(vi, 1.0 / 3.0, 1e-10) << schemeName(scheme);
+  }
+}
+
+}  // namespace
+}  // namespace sweep
