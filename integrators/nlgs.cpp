@@ -56,7 +56,6 @@ void NlgsWorkspace::prepare(int contacts, int nv) {
   order.resize(contacts);
   threshold.resize(contacts);
   held_normal.resize(contacts);
-  delta.resize(contacts);
   for (int c = 0; c < contacts; ++c) order[c] = c;
 }
 
@@ -244,14 +243,14 @@ FrictionBlock frictionBlock(const ContactProblem& p, int c) {
 }  // namespace
 
 NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settings,
-                             const FrictionStageOptions& options, std::vector<double>& lambda_N,
+                             const FrictionStageOptions& options,
+                             const std::vector<double>& lambda_N, std::vector<double>& delta,
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws) {
   NlgsStats stats;
   const int n = p.size();
   const int dT = p.dimension - 1;
   // thresholds frozen from stage 5a; the normal velocities of closed contacts (GLOBAL)
   // are held at their stage-5a values
-  std::fill(ws.delta.begin(), ws.delta.end(), 0.0);
   for (int c = 0; c < n; ++c) {
     const Matrix3& W = p.delassus[c];
     double S = p.friction[c] * lambda_N[c];
@@ -299,7 +298,15 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       ws.offset[c] = Vector2(u.y(), u.z());
     }
   }
-  for (int c = 0; c < n; ++c) p.applyImpulse(c, tangentMap(c, lambda_T[c]), v);
+  for (int c = 0; c < n; ++c) {
+    // a warm start must be admissible: contacts without threshold carry no friction, and
+    // the sweep skips them, so nothing may be left on them
+    if (options.tangents != TangentMode::Global || ws.threshold[c] <= 0.0) delta[c] = 0.0;
+    if (ws.threshold[c] <= 0.0) lambda_T[c].setZero();
+    Vector3 warm = tangentMap(c, lambda_T[c]);
+    warm.x() += delta[c];
+    p.applyImpulse(c, warm, v);
+  }
   bool any = false;
   for (int c = 0; c < n; ++c) any = any || ws.threshold[c] > 0.0;
   if (!any) return stats;
@@ -308,7 +315,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     double f2 = 0.0, scale2 = 0.0;
     for (int k = 0; k < n; ++k) {
       const int c = ws.order[k];
-      if (ws.threshold[c] <= 0.0 && ws.delta[c] == 0.0) continue;
+      if (ws.threshold[c] <= 0.0 && delta[c] == 0.0) continue;
       const FrictionBlock b = frictionBlock(p, c);
       const Matrix3& W = p.delassus[c];
       const Vector3 u = p.localVelocity(c, v);
@@ -363,12 +370,12 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
         // keep this contact's normal velocity at its stage-5a value
         const double dd = -(drift + W.block<1, 2>(0, 1).dot(dl)) / W(0, 0);
         dP.x() += dd;
-        ws.delta[c] += dd;
+        delta[c] += dd;
       }
       p.applyImpulse(c, dP, v);
       lambda_T[c] += dl;
       change2 += dP.squaredNorm();
-      size2 += lambda_T[c].squaredNorm() + ws.delta[c] * ws.delta[c];
+      size2 += lambda_T[c].squaredNorm() + delta[c] * delta[c];
     }
     return relative(f2, scale2);
   };
@@ -390,10 +397,13 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   stats.status =
       stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
   if (!v.allFinite()) stats.status = SolverStatus::Failed;
-  // lambda_N out: the whole impulse along W_N (5a, bilateral corrections, and the normal
-  // part of LOCAL tangents), so that (lambda_N, lambda_T) are impulses on the rows H
-  for (int c = 0; c < n; ++c) lambda_N[c] += ws.delta[c] + tangentMap(c, lambda_T[c]).x();
   return stats;
+}
+
+double tangentNormalPart(const ContactProblem& p, int c, const FrictionStageOptions& options,
+                         const Vector2& lambda_T) {
+  if (options.tangents != TangentMode::Local) return 0.0;
+  return -frictionBlock(p, c).coupling.dot(lambda_T);
 }
 
 }  // namespace sweep

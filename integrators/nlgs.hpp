@@ -45,7 +45,6 @@ struct NlgsWorkspace {
   std::mt19937 rng;
   std::vector<double> threshold;    // friction stage: mu lambda_N per contact
   std::vector<double> held_normal;  // friction stage: normal velocity after stage 5a
-  std::vector<double> delta;        // friction stage: bilateral normal corrections
   std::vector<double> y;            // friction stage: normal-velocity part of v1, N_A y
   std::vector<Vector2> offset;      // friction stage: W_T^T v_N per contact
   VectorX v_normal;                 // friction stage: v_N = M^-1 N_A y
@@ -78,11 +77,19 @@ struct FrictionStageOptions {
   FrictionThreshold threshold = FrictionThreshold::Physical;
 };
 
-// Stage 5b. lambda_N: the normal impulses of stage 5a (thresholds), returned with the
-// bilateral corrections of GLOBAL mode added. lambda_T: in the warm start, out the tangential
-// impulses. v: in v1 (after stage 5a), out v2.
+// Stage 5b. lambda_N: the normal impulses of stage 5a (thresholds mu lambda_N). delta: in the
+// warm start, out the bilateral normal corrections of GLOBAL mode (zero otherwise).
+// lambda_T: in the warm start, out the tangential impulses. v: in v1 (after 5a), out v2.
+// The impulse on the rows H of contact c is then
+//   (lambda_N + delta + tangentNormalPart(...), lambda_T).
 NlgsStats solveFrictionStage(const ContactProblem& problem, const NlgsSettings& settings,
-                             const FrictionStageOptions& options, std::vector<double>& lambda_N,
+                             const FrictionStageOptions& options,
+                             const std::vector<double>& lambda_N, std::vector<double>& delta,
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& workspace);
+
+// The W_N component of LOCAL tangents (t~ = W_T - W_N W_NT / W_NN) times lambda_T; zero in
+// the other modes.
+double tangentNormalPart(const ContactProblem& problem, int c, const FrictionStageOptions& options,
+                         const Vector2& lambda_T);
 
 }  // namespace sweep

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "framework/configuration.hpp"
+#include "framework/crba.hpp"
 #include "framework/dynamics.hpp"
 #include "framework/energy.hpp"
 #include "framework/error.hpp"
@@ -68,6 +69,8 @@ void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
   stats_.t = t;
   impulse_.clear();
   previous_impulse_.clear();
+  staged_.clear();
+  previous_staged_.clear();
   cdata_ = ContactData(model_, cmodel_);
 }
 
@@ -103,6 +106,8 @@ void TimeStepper::detect() {
   detectContacts(model_, data_, cmodel_, cdata_, t_m, margin);
   std::swap(impulse_, previous_impulse_);
   impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
+  std::swap(staged_, previous_staged_);
+  staged_.assign(cdata_.contacts.size(), StagedImpulse{});
   stats_.candidates = static_cast<int>(cdata_.contacts.size());
   stats_.t_detect = seconds(start);
 }
@@ -137,9 +142,15 @@ void TimeStepper::assemble() {
   stats_.t_assemble += seconds(start);
 }
 
+double TimeStepper::metricKinetic(const VectorX& v) {
+  applyMass(model_, data_, v, mass_times_v_);
+  return 0.5 * v.dot(mass_times_v_);
+}
+
 void TimeStepper::solveMoreauJean() {
   const auto start = Clock::now();
   VectorX& v = v_free_;  // becomes v_{k+1}
+  stats_.kinetic_free = metricKinetic(v);
   const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_);
   stats_.iterations_stage1 = s.iterations;
   stats_.iterations_stage2 = 0;
@@ -147,6 +158,7 @@ void TimeStepper::solveMoreauJean() {
   stats_.status = s.status;
   stats_.cap_hit = s.status == SolverStatus::MaxIterations;
   stats_.local_failures = s.local_failures;
+  stats_.kinetic_stage1 = stats_.kinetic_solved = metricKinetic(v);
   stats_.t_solve = seconds(start);
 }
 
@@ -154,12 +166,18 @@ void TimeStepper::solveCatchingUp() {
   const auto start = Clock::now();
   const int n = problem_.size();
   VectorX& v = v_free_;
-  lambda_N_.resize(n);
-  lambda_T_.resize(n);
+  // warm start each stage from its own previous values
+  lambda_N_.assign(n, 0.0);
+  delta_.assign(n, 0.0);
+  lambda_T_.assign(n, Vector2::Zero());
   for (int c = 0; c < n; ++c) {
-    lambda_N_[c] = P_[c].x();
-    lambda_T_[c] = P_[c].tail<2>();
+    const int previous = cdata_.contacts[problem_.contact[c]].previous;
+    if (previous < 0 || previous >= static_cast<int>(previous_staged_.size())) continue;
+    lambda_N_[c] = previous_staged_[previous].normal;
+    delta_[c] = previous_staged_[previous].delta;
+    lambda_T_[c] = previous_staged_[previous].tangent;
   }
+  stats_.kinetic_free = metricKinetic(v);
   // 5a: frictionless inelastic shock on the scaled normals
   const NlgsStats normal =
       solveNormalStage(problem_, settings_.normal_stage, lambda_N_, v, nlgs_ws_);
@@ -168,21 +186,28 @@ void TimeStepper::solveCatchingUp() {
   stats_.status = normal.status;
   stats_.cap_hit = normal.status == SolverStatus::MaxIterations;
   stats_.iterations_stage2 = 0;
+  stats_.kinetic_stage1 = metricKinetic(v);
   // 5b: friction with frozen thresholds, skipped when no contact can have friction
   if (!cmodel_.frictionless) {
-    const NlgsStats friction = solveFrictionStage(
-        problem_, settings_.friction_stage, settings_.friction, lambda_N_, lambda_T_, v, nlgs_ws_);
+    const NlgsStats friction =
+        solveFrictionStage(problem_, settings_.friction_stage, settings_.friction, lambda_N_,
+                           delta_, lambda_T_, v, nlgs_ws_);
     stats_.iterations_stage2 = friction.iterations;
     stats_.residual = std::max(stats_.residual, friction.residual);
     stats_.cap_hit = stats_.cap_hit || friction.status == SolverStatus::MaxIterations;
     if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
   } else {
-    for (Vector2& l : lambda_T_) l.setZero();
+    std::fill(delta_.begin(), delta_.end(), 0.0);
+    std::fill(lambda_T_.begin(), lambda_T_.end(), Vector2::Zero());
   }
-  for (int c = 0; c < n; ++c) P_[c] = Vector3(lambda_N_[c], lambda_T_[c].x(), lambda_T_[c].y());
-  if (problem_.dimension == 2)
-    for (Vector3& p : P_) p.z() = 0.0;
+  for (int c = 0; c < n; ++c) {
+    const double normal_total =
+        lambda_N_[c] + delta_[c] + tangentNormalPart(problem_, c, settings_.friction, lambda_T_[c]);
+    P_[c] = Vector3(normal_total, lambda_T_[c].x(), lambda_T_[c].y());
+    staged_[problem_.contact[c]] = StagedImpulse{lambda_N_[c], delta_[c], lambda_T_[c]};
+  }
   stats_.local_failures = 0;
+  stats_.kinetic_solved = metricKinetic(v);
   stats_.t_solve = seconds(start);
 }
 

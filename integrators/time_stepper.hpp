@@ -63,6 +63,9 @@ struct StepStats {
   double penetration_max = 0.0;  // max over contacts of max(0, -g(q_{k+1}))
   double penetration_sum = 0.0;
   int penetration_count = 0;
+  // kinetic energy in the metric M(q_m) of the contact solve: of v_free, after the normal
+  // stage (B; A: after the solve), and after the whole solve
+  double kinetic_free = 0.0, kinetic_stage1 = 0.0, kinetic_solved = 0.0;
   double kinetic = 0.0;  // at the end of the step
   double potential = 0.0;
   double work_normal = 0.0;   // sum_c P_N (U_N(k) + U_N(k+1)) / 2
@@ -116,10 +119,21 @@ class TimeStepper {
   double t_ = 0.0;
   VectorX q_, v_, q_m_, v_free_, tau_;
   std::vector<Vector3> impulse_, previous_impulse_;  // aligned with contacts / previous
-  std::vector<Vector3> P_;                           // problem rows
+  // scheme B warm starts, aligned the same way: stage-5a normal impulse, bilateral
+  // correction, tangential impulse
+  struct StagedImpulse {
+    double normal = 0.0;
+    double delta = 0.0;
+    Vector2 tangent = Vector2::Zero();
+  };
+  std::vector<StagedImpulse> staged_, previous_staged_;
+  std::vector<double> delta_;
+  std::vector<Vector3> P_;  // problem rows
   std::vector<double> lambda_N_;
   std::vector<Vector2> lambda_T_;
   std::vector<double> end_gap_;
+  VectorX mass_times_v_;
+  double metricKinetic(const VectorX& v);  // 1/2 v^T M(q_m) v
 };
 
 }  // namespace sweep

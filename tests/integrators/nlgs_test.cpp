@@ -93,7 +93,8 @@ TEST(KaneImpact, CatchingUpDoesNotGainEnergy) {
     EXPECT_NEAR(v[0], 1.0, 1e-12);
     FrictionStageOptions options;
     options.tangents = mode;
-    solveFrictionStage(p, tight(1500), options, lambda_N, lambda_T, v, ws);
+    std::vector<double> delta = {0.0};
+    solveFrictionStage(p, tight(1500), options, lambda_N, delta, lambda_T, v, ws);
     // stage 2 sticks on the tangent M^-1-orthogonal to the normal: v+ = (1, 0)
     EXPECT_NEAR(v[0], 1.0, 1e-9) << tangentModeName(mode);
     EXPECT_NEAR(v[1], 0.0, 1e-9) << tangentModeName(mode);
@@ -141,7 +142,8 @@ TEST(PainleveRod, CatchingUpSlidesWithoutJump) {
   solveNormalStage(p, tight(1500), lambda_N, v, ws);
   // the frictionless normal impulse: h N0 with N0 = m g / (1 + 3 cos^2 th) = 0.625 m g
   EXPECT_NEAR(lambda_N[0], r.h * 0.625 * r.g, 1e-12);
-  solveFrictionStage(p, tight(1500), FrictionStageOptions{}, lambda_N, lambda_T, v, ws);
+  std::vector<double> delta = {0.0};
+  solveFrictionStage(p, tight(1500), FrictionStageOptions{}, lambda_N, delta, lambda_T, v, ws);
   // sliding continues: the sliding velocity changes by W_TN lambda_N (stage 5a) plus
   // Atil mu lambda_N (stage 5b, Atil = W_TT - W_NT^2 / W_NN = 2.5), both O(h)
   const double lambda_1 = r.h * 0.625 * r.g;
@@ -149,7 +151,7 @@ TEST(PainleveRod, CatchingUpSlidesWithoutJump) {
   EXPECT_LT(r.WT.dot(v), 0.0);
   // no O(1) normal impulse: the bilateral correction keeps U_N at its stage-5a value
   EXPECT_NEAR(r.WN.dot(v), 0.0, 1e-12);
-  EXPECT_LT(lambda_N[0], 3.0 * lambda_1);
+  EXPECT_LT(lambda_N[0] + delta[0], 3.0 * lambda_1);
 }
 
 // V6, Newton's cradle: three equal touching disks, the first at speed v, frictionless.

@@ -1,0 +1,109 @@
+// No heap allocation inside the solvers: every operator new of the process is counted while
+// a solve runs. Stronger than Eigen's malloc check, which sees Eigen's own allocations only.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "framework/dynamics.hpp"
+#include "framework/kinematics.hpp"
+#include "integrators/nlgs.hpp"
+#include "integrators/time_stepper.hpp"
+#include "models/granular.hpp"
+
+namespace {
+std::atomic<bool> counting{false};
+std::atomic<long> allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (counting) ++allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+
+namespace sweep {
+namespace {
+
+struct Counted {
+  Counted() {
+    allocations = 0;
+    counting = true;
+  }
+  ~Counted() { counting = false; }
+};
+
+// A settled pile; then one step's problem is built by hand and each solver runs on it with
+// the counter armed.
+TEST(NoAllocation, InsideEverySolver) {
+  for (bool planar : {true, false}) {
+    GranularBoxParameters parameters;
+    parameters.count = 120;
+    parameters.planar = planar;
+    const Scene scene = granularBox(parameters);
+    SchemeSettings settings;
+    settings.h = 2e-4;
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    for (int k = 0; k < 400; ++k) stepper.step();
+
+    const Model& model = scene.model;
+    Data data(model);
+    ContactData cdata(model, scene.cmodel);
+    const VectorX q = stepper.q(), v = stepper.v();
+    forwardKinematics(model, data, q, v);
+    detectContacts(model, data, scene.cmodel, cdata, 0.0,
+                   detectionMargin(model, data, scene.cmodel, settings.h, 0.0));
+    const VectorX v_free =
+        v + settings.h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
+    assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
+    ContactProblem problem;
+    ContactProblemWorkspace pws(model);
+    assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Pos, 0.5 * settings.h, v,
+                           problem, pws);
+    const int n = problem.size();
+    ASSERT_GT(n, 50);
+    NlgsWorkspace ws;
+    ws.prepare(n, model.nv);
+    NlgsSettings nlgs;
+    nlgs.max_iterations = 50;
+    nlgs.shuffle = true;
+
+    std::vector<Vector3> P(n, Vector3::Zero());
+    VectorX v_a = v_free;
+    {
+      Counted counted;
+      solveCoulombNlgs(problem, nlgs, P, v_a, ws);
+    }
+    EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " Moreau-Jean";
+
+    std::vector<double> lambda_N(n, 0.0);
+    std::vector<Vector2> lambda_T(n, Vector2::Zero());
+    VectorX v_b = v_free;
+    {
+      Counted counted;
+      solveNormalStage(problem, nlgs, lambda_N, v_b, ws);
+    }
+    EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " normal stage";
+    for (FrictionThreshold threshold : {FrictionThreshold::Physical, FrictionThreshold::Metric}) {
+      FrictionStageOptions options;
+      options.threshold = threshold;
+      std::vector<double> delta(n, 0.0);
+      VectorX v_c = v_b;
+      Counted counted;
+      solveFrictionStage(problem, nlgs, options, lambda_N, delta, lambda_T, v_c, ws);
+      counting = false;
+      EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " friction stage";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sweep
