@@ -9,7 +9,10 @@ bool solveCoulomb2d(const Matrix2& W, const Vector2& q, double mu, Vector2& P) {
     P.setZero();
     return true;
   }
-  const Vector2 stick = -W.ldlt().solve(q);
+  // W is SPD: the 2x2 inverse in closed form
+  const double det = W(0, 0) * W(1, 1) - W(0, 1) * W(1, 0);
+  const Vector2 stick(-(W(1, 1) * q.x() - W(0, 1) * q.y()) / det,
+                      -(W(0, 0) * q.y() - W(1, 0) * q.x()) / det);
   if (std::abs(stick.y()) <= mu * stick.x()) {
     P = stick;
     return true;

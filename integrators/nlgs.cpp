@@ -52,6 +52,8 @@ void NlgsSettings::validate(const std::string& owner) const {
 void NlgsWorkspace::prepare(int contacts, int nv) {
   y.resize(contacts);
   offset.resize(contacts);
+  coupling.resize(contacts);
+  schur.resize(contacts);
   if (v_normal.size() < nv) v_normal.resize(nv);
   order.resize(contacts);
   threshold.resize(contacts);
@@ -174,16 +176,16 @@ NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings
     double change2 = 0.0, size2 = 0.0;
     for (int k = 0; k < n; ++k) {
       const int c = ws.order[k];
-      // unit diagonal: the exact local solve is a clamp
-      const double s = std::sqrt(p.delassus[c](0, 0));
-      const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / s;
-      const double Lambda = s * lambda_N[c];
-      const double Lambda_new = std::max(Lambda - settings.relaxation * xi, 0.0);
-      const double d_lambda = (Lambda_new - Lambda) / s;
+      // unit diagonal in the scaled variables Lambda = s lambda, xi = U*_N / s (s^2 = W_NN):
+      // Lambda <- [Lambda - omega xi]_+ is, in physical units, the clamp below
+      const double W_NN = p.delassus[c](0, 0);
+      const double U_star = p.localVelocity(c, v).x() + p.normal_bias[c];
+      const double lambda_new = std::max(lambda_N[c] - settings.relaxation * U_star / W_NN, 0.0);
+      const double d_lambda = lambda_new - lambda_N[c];
       p.applyImpulse(c, Vector3(d_lambda, 0, 0), v);
-      lambda_N[c] += d_lambda;
-      change2 += (Lambda_new - Lambda) * (Lambda_new - Lambda);
-      size2 += Lambda_new * Lambda_new;
+      lambda_N[c] = lambda_new;
+      change2 += W_NN * d_lambda * d_lambda;
+      size2 += W_NN * lambda_new * lambda_new;
     }
     stats.iterations = it + 1;
     if (relative(change2, size2) < settings.tolerance) {
@@ -208,10 +210,17 @@ namespace {
 // unconstrained minimizer, or the boundary point where (A + nu I) y = A y0 - b, nu >= 0,
 // found by bisection on nu (|y(nu)| decreases with nu).
 Vector2 minimizeOnDisc(const Matrix2& A, const Vector2& y0, const Vector2& b, double radius) {
+  if (radius <= 0.0) return Vector2::Zero();
+  const double trace = A(0, 0) + A(1, 1);
+  if (std::abs(A(0, 1)) <= 1e-12 * trace && std::abs(A(0, 0) - A(1, 1)) <= 1e-12 * trace) {
+    // isotropic (spheres): the metric projection is the Euclidean one
+    const Vector2 y = y0 - b / A(0, 0);
+    const double norm = y.norm();
+    return norm <= radius ? y : Vector2(y * (radius / norm));
+  }
   const Vector2 rhs = A * y0 - b;
   Vector2 y = A.ldlt().solve(rhs);
   if (y.norm() <= radius) return y;
-  if (radius <= 0.0) return Vector2::Zero();
   double lo = 0.0, hi = rhs.norm() / radius;  // at nu = hi, |y| <= |rhs| / nu = radius
   for (int it = 0; it < 100; ++it) {
     const double nu = 0.5 * (lo + hi);
@@ -252,10 +261,15 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // thresholds frozen from stage 5a; the normal velocities of closed contacts (GLOBAL)
   // are held at their stage-5a values
   for (int c = 0; c < n; ++c) {
+    const FrictionBlock block = frictionBlock(p, c);
+    ws.coupling[c] = block.coupling;
+    ws.schur[c] = block.schur;
+  }
+  for (int c = 0; c < n; ++c) {
     const Matrix3& W = p.delassus[c];
     double S = p.friction[c] * lambda_N[c];
     if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
-      S *= std::sqrt(W(0, 0) / frictionBlock(p, c).schur(0, 0));
+      S *= std::sqrt(W(0, 0) / ws.schur[c](0, 0));
     ws.threshold[c] = S;
     ws.held_normal[c] = p.localVelocity(c, v).x();
   }
@@ -263,7 +277,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     // impulse in (normal, tangents) whose generalized force is the chosen tangent times dl
     // in 2D the second tangent component of dl and of the coupling is zero
     Vector3 dP(0.0, dl.x(), dT == 2 ? dl.y() : 0.0);
-    if (options.tangents == TangentMode::Local) dP.x() = -frictionBlock(p, c).coupling.dot(dl);
+    if (options.tangents == TangentMode::Local) dP.x() = -ws.coupling[c].dot(dl);
     return dP;
   };
   // Friction acts on the tangential part of the motion, W_T^T (v - v_N), with v_N the
@@ -316,12 +330,12 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     for (int k = 0; k < n; ++k) {
       const int c = ws.order[k];
       if (ws.threshold[c] <= 0.0 && delta[c] == 0.0) continue;
-      const FrictionBlock b = frictionBlock(p, c);
+      const Vector2& coupling = ws.coupling[c];
       const Matrix3& W = p.delassus[c];
       const Vector3 u = p.localVelocity(c, v);
       Vector2 uT(u.y(), dT == 2 ? u.z() : 0.0);
       uT -= ws.offset[c];
-      Matrix2 A = b.schur;
+      Matrix2 A = ws.schur[c];
       bool bilateral = false;
       double drift = 0.0;
       switch (options.tangents) {
@@ -329,10 +343,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
           bilateral = ws.threshold[c] > 0.0;
           drift = u.x() - ws.held_normal[c];
           // eliminating the normal correction leaves the Schur complement
-          uT -= b.coupling * drift;
+          uT -= coupling * drift;
           break;
         case TangentMode::Local:
-          uT -= b.coupling * u.x();
+          uT -= coupling * u.x();
           break;
         case TangentMode::None:
           A = W.block<2, 2>(1, 1);

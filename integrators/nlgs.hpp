@@ -48,6 +48,8 @@ struct NlgsWorkspace {
   std::vector<double> y;            // friction stage: normal-velocity part of v1, N_A y
   std::vector<Vector2> offset;      // friction stage: W_T^T v_N per contact
   VectorX v_normal;                 // friction stage: v_N = M^-1 N_A y
+  std::vector<Vector2> coupling;    // friction stage: W_TN / W_NN per contact
+  std::vector<Matrix2> schur;       // friction stage: W_TT - W_TN W_NT / W_NN per contact
 };
 
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.
