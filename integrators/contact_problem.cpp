@@ -29,7 +29,7 @@ ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
 }
 
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
-                            const ContactData& cdata, NormalLaw law, double tau,
+                            const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& p,
                             ContactProblemWorkspace& ws) {
   const ContactJacobian& J = cdata.jacobian;
@@ -49,28 +49,20 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.velocity_start.clear();
   p.normal_bias.clear();
 
-  for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
-    const Contact& contact = cdata.contacts[c];
-    // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
-    if (law == NormalLaw::Vel && contact.gap > 0.0) continue;
-    p.contact.push_back(c);
-    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
-      p.dof.push_back(J.dof[k]);
-      p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);
-    }
+  // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
+  auto finishRow = [&](const Vector3& known, double gap, double mu, double e) {
+    const int pc = static_cast<int>(p.begin.size()) - 1;
     p.begin.push_back(static_cast<int>(p.dof.size()));
-
     // M^-1 H_c, component by component (a contact touches at most two)
     ws.touched.clear();
-    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
-      const int comp = ws.dof_component[J.dof[k]];
+    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+      const int comp = ws.dof_component[p.dof[k]];
       const Component& component = model.components[comp];
       if (std::find(ws.touched.begin(), ws.touched.end(), comp) == ws.touched.end()) {
         ws.touched.push_back(comp);
         ws.component_rhs[comp].setZero();
       }
-      ws.component_rhs[comp].row(J.dof[k] - component.v_index) << J.normal[k], J.tangent1[k],
-          J.tangent2[k];
+      ws.component_rhs[comp].row(p.dof[k] - component.v_index) = p.h[k].transpose();
     }
     for (int comp : ws.touched) {
       const Component& component = model.components[comp];
@@ -83,9 +75,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     }
     p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
 
-    // W_cc = H_c^T M^-1 H_c, from the dense component columns
+    // W_cc = H_c^T M^-1 H_c
     Matrix3 W = Matrix3::Zero();
-    const int pc = p.size() - 1;
     for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
       for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
         if (p.minv_dof[m] == p.dof[k]) W += p.h[k] * p.minv_h[m].transpose();
@@ -94,17 +85,40 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       W.col(2).setZero();
     }
     p.delassus.push_back(W);
-
-    p.known.push_back(J.known_velocity[c]);
-    p.gap.push_back(contact.gap);
-    p.friction.push_back(contact.friction);
-    p.restitution.push_back(contact.restitution);
+    p.known.push_back(known);
+    p.gap.push_back(gap);
+    p.friction.push_back(mu);
+    p.restitution.push_back(e);
     const Vector3 u_start = p.localVelocity(pc, v_start);
     p.velocity_start.push_back(u_start);
-    double bias = contact.restitution * u_start.x();
-    if (law == NormalLaw::Iqs) bias += std::max(contact.gap, 0.0) / tau;
-    if (law == NormalLaw::Pos) bias += contact.gap / tau;
+    double bias = e * u_start.x();
+    if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;
+    if (law == NormalLaw::Pos) bias += gap / tau;
     p.normal_bias.push_back(bias);
+  };
+
+  for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
+    const Contact& contact = cdata.contacts[c];
+    // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
+    if (law == NormalLaw::Vel && contact.gap > 0.0) continue;
+    p.contact.push_back(c);
+    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
+      p.dof.push_back(J.dof[k]);
+      p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);
+    }
+    finishRow(J.known_velocity[c], contact.gap, contact.friction, contact.restitution);
+  }
+
+  // joint limits: gap = side (q - bound) >= 0, W_N = side on the joint's velocity
+  for (int l = 0; l < static_cast<int>(model.limits.size()); ++l) {
+    const JointLimit& limit = model.limits[l];
+    const double gap = limit.side * (q_m[limit.q_index] - limit.bound);
+    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * std::abs(v_start[limit.v_index]);
+    if (gap > reach) continue;
+    p.contact.push_back(-1 - l);
+    p.dof.push_back(limit.v_index);
+    p.h.emplace_back(limit.side, 0.0, 0.0);
+    finishRow(Vector3::Zero(), gap, 0.0, 0.0);
   }
 }
 

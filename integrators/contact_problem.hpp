@@ -25,8 +25,9 @@ enum class NormalLaw {
 const char* normalLawName(NormalLaw law);
 
 struct ContactProblem {
-  int dimension = 2;         // local size d: 2 (normal, tangent) or 3
-  std::vector<int> contact;  // index of each row block in ContactData::contacts
+  int dimension = 2;  // local size d: 2 (normal, tangent) or 3
+  // index of each row block in ContactData::contacts, or -1 - l for joint limit l
+  std::vector<int> contact;
 
   std::vector<int> begin;  // H entries of contact c: [begin[c], begin[c + 1])
   std::vector<int> dof;
@@ -64,8 +65,11 @@ struct ContactProblemWorkspace {
 
 // Builds the problem from cdata.contacts/jacobian (assembled at q_m) and the factored mass
 // blocks of data (at q_m). tau = h/2 is the time over which a gap closes (midpoint scheme).
+// Joint limits (Model::limits) join the same solve as frictionless unilateral rows with gap
+// side (q_m - bound); with the gap-aware laws a limit enters once it can close within the
+// step (gap <= 2 tau |joint rate|).
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
-                            const ContactData& cdata, NormalLaw law, double tau,
+                            const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& problem,
                             ContactProblemWorkspace& workspace);
 

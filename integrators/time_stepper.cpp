@@ -71,6 +71,8 @@ void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
   previous_impulse_.clear();
   staged_.clear();
   previous_staged_.clear();
+  limit_impulse_.assign(model_.limits.size(), 0.0);
+  limit_staged_.assign(model_.limits.size(), StagedImpulse{});
   cdata_ = ContactData(model_, cmodel_);
 }
 
@@ -128,17 +130,23 @@ void TimeStepper::assemble() {
   // forwardDynamics left the kinematics of data at q_m
   assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m);
   assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
-                         v_, problem_, problem_ws_);
+                         q_m_, v_, problem_, problem_ws_);
   const int n = problem_.size();
   stats_.active = n;
   nlgs_ws_.prepare(n, model_.nv);
   // warm start from the previous step's impulses of the same contacts
   P_.assign(n, Vector3::Zero());
   for (int c = 0; c < n; ++c) {
-    const int previous = cdata_.contacts[problem_.contact[c]].previous;
+    const int id = problem_.contact[c];
+    if (id < 0) {
+      P_[c].x() = limit_impulse_[-1 - id];
+      continue;
+    }
+    const int previous = cdata_.contacts[id].previous;
     if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()))
       P_[c] = previous_impulse_[previous];
   }
+  std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
   stats_.t_assemble += seconds(start);
 }
 
@@ -162,6 +170,14 @@ void TimeStepper::solveMoreauJean() {
   stats_.t_solve = seconds(start);
 }
 
+const TimeStepper::StagedImpulse* TimeStepper::previousStaged(int c) const {
+  const int id = problem_.contact[c];
+  if (id < 0) return &limit_staged_[-1 - id];
+  const int previous = cdata_.contacts[id].previous;
+  if (previous < 0 || previous >= static_cast<int>(previous_staged_.size())) return nullptr;
+  return &previous_staged_[previous];
+}
+
 void TimeStepper::solveCatchingUp() {
   const auto start = Clock::now();
   const int n = problem_.size();
@@ -171,11 +187,11 @@ void TimeStepper::solveCatchingUp() {
   delta_.assign(n, 0.0);
   lambda_T_.assign(n, Vector2::Zero());
   for (int c = 0; c < n; ++c) {
-    const int previous = cdata_.contacts[problem_.contact[c]].previous;
-    if (previous < 0 || previous >= static_cast<int>(previous_staged_.size())) continue;
-    lambda_N_[c] = previous_staged_[previous].normal;
-    delta_[c] = previous_staged_[previous].delta;
-    lambda_T_[c] = previous_staged_[previous].tangent;
+    const StagedImpulse* previous = previousStaged(c);
+    if (previous == nullptr) continue;
+    lambda_N_[c] = previous->normal;
+    delta_[c] = previous->delta;
+    lambda_T_[c] = previous->tangent;
   }
   stats_.kinetic_free = metricKinetic(v);
   // 5a: frictionless inelastic shock on the scaled normals
@@ -204,7 +220,9 @@ void TimeStepper::solveCatchingUp() {
     const double normal_total =
         lambda_N_[c] + delta_[c] + tangentNormalPart(problem_, c, settings_.friction, lambda_T_[c]);
     P_[c] = Vector3(normal_total, lambda_T_[c].x(), lambda_T_[c].y());
-    staged_[problem_.contact[c]] = StagedImpulse{lambda_N_[c], delta_[c], lambda_T_[c]};
+    const int id = problem_.contact[c];
+    (id < 0 ? limit_staged_[-1 - id] : staged_[id]) =
+        StagedImpulse{lambda_N_[c], delta_[c], lambda_T_[c]};
   }
   stats_.local_failures = 0;
   stats_.kinetic_solved = metricKinetic(v);
@@ -220,7 +238,11 @@ void TimeStepper::update() {
     const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + problem_.localVelocity(c, v_free_));
     stats_.work_normal += P_[c].x() * u_mean.x();
     stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
-    impulse_[problem_.contact[c]] = P_[c];
+    const int id = problem_.contact[c];
+    if (id < 0)
+      limit_impulse_[-1 - id] = P_[c].x();
+    else
+      impulse_[id] = P_[c];
   }
   v_ = v_free_;
   integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);

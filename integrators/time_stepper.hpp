@@ -93,6 +93,8 @@ class TimeStepper {
   const ContactData& contactData() const { return cdata_; }
   // impulse (normal, tangents) of each contact of contactData().contacts in the last step
   const std::vector<Vector3>& impulses() const { return impulse_; }
+  // impulse of each joint limit (Model::limits) in the last step
+  const std::vector<double>& limitImpulses() const { return limit_impulse_; }
   double energy();  // kinetic + potential at the current state
 
  private:
@@ -127,6 +129,10 @@ class TimeStepper {
     Vector2 tangent = Vector2::Zero();
   };
   std::vector<StagedImpulse> staged_, previous_staged_;
+  std::vector<double> limit_impulse_;  // joint limits persist: warm start by index
+  std::vector<StagedImpulse> limit_staged_;
+  // warm-start value of problem row c (a contact's previous impulse, or a limit's)
+  const StagedImpulse* previousStaged(int c) const;
   std::vector<double> delta_;
   std::vector<Vector3> P_;  // problem rows
   std::vector<double> lambda_N_;

@@ -66,7 +66,7 @@ TEST(NoAllocation, InsideEverySolver) {
     assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
     ContactProblem problem;
     ContactProblemWorkspace pws(model);
-    assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Pos, 0.5 * settings.h, v,
+    assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Pos, 0.5 * settings.h, q, v,
                            problem, pws);
     const int n = problem.size();
     ASSERT_GT(n, 50);
