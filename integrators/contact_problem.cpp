@@ -42,6 +42,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.minv_dof.clear();
   p.minv_h.clear();
   p.delassus.clear();
+  p.delassus_inverse.clear();
+  p.normal_compliance_inverse.clear();
   p.known.clear();
   p.gap.clear();
   p.friction.clear();
@@ -85,6 +87,19 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       W.col(2).setZero();
     }
     p.delassus.push_back(W);
+    // a row without friction (mu = 0, or no tangential motion at all, as a joint limit)
+    // is solved on its normal alone: its tangential block may be singular
+    const double W_TT = p.dimension == 2 ? W(1, 1) : W(1, 1) + W(2, 2);
+    if (!(W_TT > 1e-12 * W(0, 0))) mu = 0.0;
+    Matrix3 W_inverse = Matrix3::Zero();
+    if (mu == 0.0)
+      W_inverse(0, 0) = 1.0 / W(0, 0);
+    else if (p.dimension == 2)
+      W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
+    else
+      W_inverse = W.inverse();
+    p.delassus_inverse.push_back(W_inverse);
+    p.normal_compliance_inverse.push_back(1.0 / W(0, 0));
     p.known.push_back(known);
     p.gap.push_back(gap);
     p.friction.push_back(mu);

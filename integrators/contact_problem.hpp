@@ -36,8 +36,10 @@ struct ContactProblem {
   std::vector<int> minv_dof;
   std::vector<Vector3> minv_h;  // (M^-1 W_N, M^-1 W_T1, M^-1 W_T2) at minv_dof
 
-  std::vector<Matrix3> delassus;  // W_cc, d x d used
-  std::vector<Vector3> known;     // relative velocity from driven bodies
+  std::vector<Matrix3> delassus;                  // W_cc, d x d used
+  std::vector<Matrix3> delassus_inverse;          // W_cc^-1 (d x d block; zero elsewhere)
+  std::vector<double> normal_compliance_inverse;  // 1 / W_NN
+  std::vector<Vector3> known;                     // relative velocity from driven bodies
   std::vector<double> gap, friction, restitution;
   std::vector<Vector3> velocity_start;  // U_c^k = H_c^T v_k + known_c
   std::vector<double> normal_bias;      // e U_N^k + gap term: U*_N = U_N + normal_bias

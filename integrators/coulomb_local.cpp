@@ -42,6 +42,10 @@ bool solveCoulomb3d(const Matrix3& W, const Vector3& q, double mu, Vector3& P) {
     P = stick;
     return true;
   }
+  return slideCoulomb3d(W, q, mu, P);
+}
+
+bool slideCoulomb3d(const Matrix3& W, const Vector3& q, double mu, Vector3& P) {
   const double scale = W.diagonal().maxCoeff();
   const bool decoupled = std::abs(W(0, 1)) + std::abs(W(0, 2)) <= 1e-14 * scale;
   const bool isotropic =

@@ -3,6 +3,8 @@
 //   take-off: P = 0, U_N >= 0;  stick: U = 0, |P_T| <= mu P_N;
 //   slide: U_N = 0, P_T = -mu P_N U_T / |U_T|.
 // q holds the local free velocity including the e-term and gap term of the normal law.
+#include <cmath>
+
 #include "framework/spatial.hpp"
 
 namespace sweep {
@@ -12,10 +14,44 @@ namespace sweep {
 // case); P then holds the frictionless answer.
 bool solveCoulomb2d(const Matrix2& W, const Vector2& q, double mu, Vector2& P);
 
+// The same with W^-1 given (computed once per step): no division on the common paths.
+inline bool solveCoulomb2d(const Matrix2& W, const Matrix2& W_inverse, const Vector2& q, double mu,
+                           Vector2& P) {
+  if (q.x() >= 0.0) {  // take-off
+    P.setZero();
+    return true;
+  }
+  const Vector2 stick = -(W_inverse * q);
+  if (std::abs(stick.y()) <= mu * stick.x()) {
+    P = stick;
+    return true;
+  }
+  return solveCoulomb2d(W, q, mu, P);  // slide: the enumeration
+}
+
 // 3D: exact solve. Take-off and stick in closed form; sliding by the direction phi of the
 // post-step sliding velocity, found by a sign scan and bisection of the parallelism
 // condition (reference 2.3 (c)); isotropic decoupled blocks (spheres) in closed form.
 bool solveCoulomb3d(const Matrix3& W, const Vector3& q, double mu, Vector3& P);
+
+// The sliding branch alone (take-off and stick already excluded).
+bool slideCoulomb3d(const Matrix3& W, const Vector3& q, double mu, Vector3& P);
+
+// The same with W^-1 given: take-off and stick without a factorization.
+inline bool solveCoulomb3d(const Matrix3& W, const Matrix3& W_inverse, const Vector3& q, double mu,
+                           Vector3& P) {
+  if (q.x() >= 0.0) {
+    P.setZero();
+    return true;
+  }
+  const Vector3 stick = -(W_inverse * q);
+  if (stick.y() * stick.y() + stick.z() * stick.z() <= mu * mu * stick.x() * stick.x() &&
+      stick.x() >= 0.0) {
+    P = stick;
+    return true;
+  }
+  return slideCoulomb3d(W, q, mu, P);
+}
 
 // Projection onto the cone {|P_T| <= mu P_N} (Siconos projectionOnCone), d = 2 or 3.
 Vector3 projectOnCone(const Vector3& r, double mu, int dimension);

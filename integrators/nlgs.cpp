@@ -114,12 +114,15 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
       q.x() += p.normal_bias[c];
       Vector3 P_new = Vector3::Zero();
       bool ok = true;
-      if (p.dimension == 2) {
+      if (p.friction[c] == 0.0) {
+        P_new.x() = std::max(-q.x() * p.delassus_inverse[c](0, 0), 0.0);
+      } else if (p.dimension == 2) {
         Vector2 P2;
-        ok = solveCoulomb2d(W.topLeftCorner<2, 2>(), q.head<2>(), p.friction[c], P2);
+        ok = solveCoulomb2d(W.topLeftCorner<2, 2>(), p.delassus_inverse[c].topLeftCorner<2, 2>(),
+                            q.head<2>(), p.friction[c], P2);
         P_new.head<2>() = P2;
       } else {
-        ok = solveCoulomb3d(W, q, p.friction[c], P_new);
+        ok = solveCoulomb3d(W, p.delassus_inverse[c], q, p.friction[c], P_new);
       }
       stats.local_failures += ok ? 0 : 1;
       P_new = omega * P_new + (1.0 - omega) * P[c];
@@ -180,7 +183,8 @@ NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings
       // Lambda <- [Lambda - omega xi]_+ is, in physical units, the clamp below
       const double W_NN = p.delassus[c](0, 0);
       const double U_star = p.localVelocity(c, v).x() + p.normal_bias[c];
-      const double lambda_new = std::max(lambda_N[c] - settings.relaxation * U_star / W_NN, 0.0);
+      const double lambda_new = std::max(
+          lambda_N[c] - settings.relaxation * U_star * p.normal_compliance_inverse[c], 0.0);
       const double d_lambda = lambda_new - lambda_N[c];
       p.applyImpulse(c, Vector3(d_lambda, 0, 0), v);
       lambda_N[c] = lambda_new;
@@ -286,9 +290,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // is what keeps KE(v2) <= KE(v1) otherwise. Solved by Gauss-Seidel on the closed set.
   std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
   bool needs_projection = false;
+  // With U*_N = U_N (e = 0, VEL) the closed contacts have U_N = 0 after stage 5a, up to the
+  // tolerance, and v_N vanishes: skipped
   for (int c = 0; c < n; ++c)
-    needs_projection =
-        needs_projection || (ws.threshold[c] > 0.0 && ws.held_normal[c] != p.known[c].x());
+    needs_projection = needs_projection || (ws.threshold[c] > 0.0 && p.normal_bias[c] != 0.0);
   if (options.tangents == TangentMode::Global && needs_projection) {
     if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
     ws.v_normal.setZero();

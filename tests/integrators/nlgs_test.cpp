@@ -33,6 +33,10 @@ ContactProblem oneContact(const VectorX& WN, const VectorX& WT, const VectorX& m
     W += row * row.transpose() / mass[i];
   }
   p.delassus = {W};
+  Matrix3 W_inverse = Matrix3::Zero();
+  W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
+  p.delassus_inverse = {W_inverse};
+  p.normal_compliance_inverse = {1.0 / W(0, 0)};
   p.known = {Vector3::Zero()};
   p.gap = {0.0};
   p.friction = {mu};
