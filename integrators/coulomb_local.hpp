@@ -53,6 +53,19 @@ inline bool solveCoulomb3d(const Matrix3& W, const Matrix3& W_inverse, const Vec
   return slideCoulomb3d(W, q, mu, P);
 }
 
+// 3D: Alart-Curnier nonsmooth Newton (Siconos variant, disc radius mu [P_N - rho U_N*]_+)
+// from the starting value in P, with an Armijo line search on |F|^2 / 2; if it does not
+// converge in 30 iterations, De Saxce projection fixed-point iterations (up to 500) take
+// over. Returns false if neither reaches |F| <= tolerance * scale.
+bool solveCoulomb3dAlartCurnier(const Matrix3& W, const Vector3& q, double mu, Vector3& P,
+                                double tolerance = 1e-14);
+
+// The production 3D solve: take-off and stick in closed form, sliding of decoupled isotropic
+// blocks (spheres) in closed form, any other sliding by Alart-Curnier from `start` (the
+// contact's previous impulse).
+bool solveCoulomb3dNewton(const Matrix3& W, const Matrix3& W_inverse, const Vector3& q, double mu,
+                          const Vector3& start, Vector3& P);
+
 // Projection onto the cone {|P_T| <= mu P_N} (Siconos projectionOnCone), d = 2 or 3.
 Vector3 projectOnCone(const Vector3& r, double mu, int dimension);
 

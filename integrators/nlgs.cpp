@@ -122,7 +122,9 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
                             q.head<2>(), p.friction[c], P2);
         P_new.head<2>() = P2;
       } else {
-        ok = solveCoulomb3d(W, p.delassus_inverse[c], q, p.friction[c], P_new);
+        ok = settings.local_solver_3d == LocalSolver3d::Enumeration
+                 ? solveCoulomb3d(W, p.delassus_inverse[c], q, p.friction[c], P_new)
+                 : solveCoulomb3dNewton(W, p.delassus_inverse[c], q, p.friction[c], P[c], P_new);
       }
       stats.local_failures += ok ? 0 : 1;
       P_new = omega * P_new + (1.0 - omega) * P[c];

@@ -21,6 +21,10 @@ namespace sweep {
 enum class SolverStatus { Converged, MaxIterations, Failed };
 const char* solverStatusName(SolverStatus status);
 
+// 3D local solver of scheme A (reference 2.3): Alart-Curnier Newton with a projection
+// fallback (default), or the exact enumeration (a sign scan of the sliding direction).
+enum class LocalSolver3d { AlartCurnier, Enumeration };
+
 struct NlgsSettings {
   int max_iterations = 3000;
   // relative natural-map residual, checked once the relative impulse change is below it
@@ -28,6 +32,7 @@ struct NlgsSettings {
   double relaxation = 1.0;  // omega; 1 is plain Gauss-Seidel, (1, 2) over-relaxation
   bool shuffle = false;     // random contact order every sweep (seeded, deterministic)
   std::uint32_t seed = 1;
+  LocalSolver3d local_solver_3d = LocalSolver3d::AlartCurnier;
 
   void validate(const std::string& owner) const;  // InputError naming the field
 };
