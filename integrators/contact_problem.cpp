@@ -19,7 +19,10 @@ const char* normalLawName(NormalLaw law) {
 }
 
 ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
-    : component_rhs(model.components.size()), dof_component(model.nv, 0) {
+    : component_rhs(model.components.size()),
+      dof_component(model.nv, 0),
+      component_parent(model.components.size()),
+      island_of_root(model.components.size()) {
   for (std::size_t i = 0; i < model.components.size(); ++i) {
     const Component& component = model.components[i];
     component_rhs[i] = MatrixX::Zero(component.nv, 3);
@@ -50,6 +53,14 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.restitution.clear();
   p.velocity_start.clear();
   p.normal_bias.clear();
+  ws.row_component.clear();
+  for (std::size_t i = 0; i < ws.component_parent.size(); ++i)
+    ws.component_parent[i] = static_cast<int>(i);
+  auto root = [&](int c) {
+    while (ws.component_parent[c] != c)
+      c = ws.component_parent[c] = ws.component_parent[ws.component_parent[c]];
+    return c;
+  };
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
   auto finishRow = [&](const Vector3& known, double gap, double mu, double e) {
@@ -76,6 +87,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       }
     }
     p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+    // islands: the components of one row are joined
+    ws.row_component.push_back(ws.touched.front());
+    for (int comp : ws.touched) {
+      const int a = root(ws.touched.front()), b = root(comp);
+      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+    }
 
     // W_cc = H_c^T M^-1 H_c
     Matrix3 W = Matrix3::Zero();
@@ -135,6 +152,26 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.h.emplace_back(limit.side, 0.0, 0.0);
     finishRow(Vector3::Zero(), gap, 0.0, 0.0);
   }
+
+  // islands numbered in order of their first row: deterministic
+  const int n = p.size();
+  std::fill(ws.island_of_root.begin(), ws.island_of_root.end(), -1);
+  std::vector<int>& island_begin = p.island_begin;
+  island_begin.assign(1, 0);
+  int islands = 0;
+  for (int c = 0; c < n; ++c) {
+    int& id = ws.island_of_root[root(ws.row_component[c])];
+    if (id < 0) {
+      id = islands++;
+      island_begin.push_back(0);
+    }
+    ++island_begin[id + 1];
+  }
+  for (int i = 0; i < islands; ++i) island_begin[i + 1] += island_begin[i];
+  p.island_rows.resize(n);
+  ws.touched.assign(island_begin.begin(), island_begin.end() - 1);  // fill cursors
+  for (int c = 0; c < n; ++c)
+    p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
 }
 
 }  // namespace sweep

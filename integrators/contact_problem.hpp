@@ -44,7 +44,16 @@ struct ContactProblem {
   std::vector<Vector3> velocity_start;  // U_c^k = H_c^T v_k + known_c
   std::vector<double> normal_bias;      // e U_N^k + gap term: U*_N = U_N + normal_bias
 
+  // contact islands: rows that share no moving component never interact, and each island is
+  // solved on its own (rows island_rows[island_begin[i] .. island_begin[i + 1]) ). Empty:
+  // one island of every row.
+  std::vector<int> island_begin;
+  std::vector<int> island_rows;
+
   int size() const { return static_cast<int>(contact.size()); }
+  int islandCount() const {
+    return island_begin.empty() ? 1 : static_cast<int>(island_begin.size()) - 1;
+  }
 
   Vector3 localVelocity(int c, const VectorX& v) const {
     Vector3 u = known[c];
@@ -63,6 +72,9 @@ struct ContactProblemWorkspace {
   std::vector<MatrixX> component_rhs;  // per component: nv x 3 block of H restricted to it
   std::vector<int> dof_component;      // component of each velocity index
   std::vector<int> touched;            // components of the current contact
+  std::vector<int> row_component;      // islands: a component of each row
+  std::vector<int> component_parent;   // islands: union-find over components
+  std::vector<int> island_of_root;
 };
 
 // Builds the problem from cdata.contacts/jacobian (assembled at q_m) and the factored mass

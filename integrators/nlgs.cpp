@@ -63,10 +63,32 @@ void NlgsWorkspace::prepare(int contacts, int nv) {
 
 namespace {
 
-void nextOrder(const NlgsSettings& settings, NlgsWorkspace& ws, int iteration) {
+void nextOrder(const NlgsSettings& settings, NlgsWorkspace& ws, int iteration, int count) {
   if (!settings.shuffle) return;
   if (iteration == 0) ws.rng.seed(settings.seed);
-  std::shuffle(ws.order.begin(), ws.order.end(), ws.rng);
+  std::shuffle(ws.order.begin(), ws.order.begin() + count, ws.rng);
+}
+
+// Puts the rows of island i in ws.order[0, count) and returns count.
+int selectIsland(const ContactProblem& p, int island, NlgsWorkspace& ws) {
+  if (p.island_begin.empty()) {
+    for (int c = 0; c < p.size(); ++c) ws.order[c] = c;
+    return p.size();
+  }
+  const int begin = p.island_begin[island], end = p.island_begin[island + 1];
+  std::copy(p.island_rows.begin() + begin, p.island_rows.begin() + end, ws.order.begin());
+  return end - begin;
+}
+
+// The stats of a solve over islands: the worst island's sweeps, residual and status.
+void mergeIsland(NlgsStats& total, const NlgsStats& island) {
+  total.iterations = std::max(total.iterations, island.iterations);
+  total.updates += island.updates;
+  total.residual = std::max(total.residual, island.residual);
+  total.local_failures += island.local_failures;
+  if (island.status == SolverStatus::Failed ||
+      (island.status == SolverStatus::MaxIterations && total.status == SolverStatus::Converged))
+    total.status = island.status;
 }
 
 double relative(double num2, double den2) {
@@ -82,9 +104,11 @@ double relative(double num2, double den2) {
 namespace {
 // natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
 // comparable to P (Siconos mixes impulses and velocities)
-double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, const VectorX& v) {
+double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, const VectorX& v,
+                       const NlgsWorkspace& ws, int count) {
   double f2 = 0.0, scale2 = 0.0;
-  for (int c = 0; c < p.size(); ++c) {
+  for (int k = 0; k < count; ++k) {
+    const int c = ws.order[k];
     Vector3 u = p.localVelocity(c, v);
     u.x() += p.normal_bias[c];
     const Vector3 ru = u / p.delassus[c](0, 0);
@@ -95,15 +119,33 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, c
 }
 }  // namespace
 
+namespace {
+NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
+                        std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws, int n);
+}  // namespace
+
 NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings,
                            std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws) {
+  NlgsStats total;
+  for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
+  if (p.size() == 0) return total;
+  for (int island = 0; island < p.islandCount(); ++island) {
+    const int n = selectIsland(p, island, ws);
+    NlgsStats island_stats = coulombIsland(p, settings, P, v, ws, n);
+    island_stats.updates = static_cast<long>(island_stats.iterations) * n;
+    mergeIsland(total, island_stats);
+  }
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
+}
+
+namespace {
+NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
+                        std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws, int n) {
   NlgsStats stats;
-  const int n = p.size();
-  for (int c = 0; c < n; ++c) p.applyImpulse(c, P[c], v);
-  if (n == 0) return stats;
   const double omega = settings.relaxation;
   for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it);
+    nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
     stats.local_failures = 0;
     for (int k = 0; k < n; ++k) {
@@ -136,19 +178,19 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
     }
     stats.iterations = it + 1;
     if (relative(change2, size2) < settings.tolerance) {
-      stats.residual = coulombResidual(p, P, v);
+      stats.residual = coulombResidual(p, P, v, ws, n);
       if (stats.residual < settings.tolerance) {
         stats.status = SolverStatus::Converged;
         return stats;
       }
     }
   }
-  stats.residual = coulombResidual(p, P, v);
+  stats.residual = coulombResidual(p, P, v, ws, n);
   stats.status =
       stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  if (!v.allFinite()) stats.status = SolverStatus::Failed;
   return stats;
 }
+}  // namespace
 
 // ---------------------------------------------------------------------------------------
 // scheme B, stage 5a: normals scaled to unit M^-1 norm, s_c = sqrt(W_NN,c); Lambda = s lambda
@@ -156,9 +198,10 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
 
 namespace {
 double normalResidual(const ContactProblem& p, const std::vector<double>& lambda_N,
-                      const VectorX& v) {
+                      const VectorX& v, const NlgsWorkspace& ws, int count) {
   double f2 = 0.0, scale2 = 0.0;
-  for (int c = 0; c < p.size(); ++c) {
+  for (int k = 0; k < count; ++k) {
+    const int c = ws.order[k];
     const double s = std::sqrt(p.delassus[c](0, 0));
     const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / s;
     const double Lambda = s * lambda_N[c];
@@ -170,14 +213,32 @@ double normalResidual(const ContactProblem& p, const std::vector<double>& lambda
 }
 }  // namespace
 
+namespace {
+NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
+                       std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws, int n);
+}  // namespace
+
 NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings,
                            std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws) {
+  NlgsStats total;
+  for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
+  if (p.size() == 0) return total;
+  for (int island = 0; island < p.islandCount(); ++island) {
+    const int n = selectIsland(p, island, ws);
+    NlgsStats island_stats = normalIsland(p, settings, lambda_N, v, ws, n);
+    island_stats.updates = static_cast<long>(island_stats.iterations) * n;
+    mergeIsland(total, island_stats);
+  }
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
+}
+
+namespace {
+NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
+                       std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws, int n) {
   NlgsStats stats;
-  const int n = p.size();
-  for (int c = 0; c < n; ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
-  if (n == 0) return stats;
   for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it);
+    nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
     for (int k = 0; k < n; ++k) {
       const int c = ws.order[k];
@@ -195,16 +256,16 @@ NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings
     }
     stats.iterations = it + 1;
     if (relative(change2, size2) < settings.tolerance) {
-      stats.residual = normalResidual(p, lambda_N, v);
+      stats.residual = normalResidual(p, lambda_N, v, ws, n);
       if (stats.residual < settings.tolerance) return stats;
     }
   }
-  stats.residual = normalResidual(p, lambda_N, v);
+  stats.residual = normalResidual(p, lambda_N, v, ws, n);
   stats.status =
       stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  if (!v.allFinite()) stats.status = SolverStatus::Failed;
   return stats;
 }
+}  // namespace
 
 // ---------------------------------------------------------------------------------------
 // scheme B, stage 5b
@@ -332,9 +393,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   for (int c = 0; c < n; ++c) any = any || ws.threshold[c] > 0.0;
   if (!any) return stats;
 
+  int count = 0;  // rows of the current island, in ws.order
   auto sweep = [&](bool residual_only, double& change2, double& size2) {
     double f2 = 0.0, scale2 = 0.0;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
       if (ws.threshold[c] <= 0.0 && delta[c] == 0.0) continue;
       const Vector2& coupling = ws.coupling[c];
@@ -401,24 +463,31 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     return relative(f2, scale2);
   };
 
-  for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it);
-    double change2 = 0.0, size2 = 0.0;
-    sweep(false, change2, size2);
-    stats.iterations = it + 1;
-    if (relative(change2, size2) < settings.tolerance) {
-      stats.residual = sweep(true, change2, size2);
-      if (stats.residual < settings.tolerance) break;
+  NlgsStats total;
+  for (int island = 0; island < p.islandCount(); ++island) {
+    count = selectIsland(p, island, ws);
+    NlgsStats island_stats;
+    for (int it = 0; it < settings.max_iterations; ++it) {
+      nextOrder(settings, ws, it, count);
+      double change2 = 0.0, size2 = 0.0;
+      sweep(false, change2, size2);
+      island_stats.iterations = it + 1;
+      if (relative(change2, size2) < settings.tolerance) {
+        island_stats.residual = sweep(true, change2, size2);
+        if (island_stats.residual < settings.tolerance) break;
+      }
     }
+    if (island_stats.iterations == settings.max_iterations) {
+      double change2 = 0.0, size2 = 0.0;
+      island_stats.residual = sweep(true, change2, size2);
+    }
+    island_stats.updates = static_cast<long>(island_stats.iterations) * count;
+    island_stats.status = island_stats.residual < settings.tolerance ? SolverStatus::Converged
+                                                                     : SolverStatus::MaxIterations;
+    mergeIsland(total, island_stats);
   }
-  if (stats.iterations == settings.max_iterations) {
-    double change2 = 0.0, size2 = 0.0;
-    stats.residual = sweep(true, change2, size2);
-  }
-  stats.status =
-      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  if (!v.allFinite()) stats.status = SolverStatus::Failed;
-  return stats;
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
 }
 
 double tangentNormalPart(const ContactProblem& p, int c, const FrictionStageOptions& options,

@@ -39,8 +39,9 @@ struct NlgsSettings {
 
 struct NlgsStats {
   SolverStatus status = SolverStatus::Converged;
-  int iterations = 0;
-  double residual = 0.0;   // relative natural-map residual at exit
+  int iterations = 0;      // sweeps of the slowest island
+  long updates = 0;        // local solves over all islands and sweeps
+  double residual = 0.0;   // relative natural-map residual at exit (worst island)
   int local_failures = 0;  // local problems without a consistent solution (Painleve cases)
 };
 

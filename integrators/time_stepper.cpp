@@ -133,6 +133,7 @@ void TimeStepper::assemble() {
                          q_m_, v_, problem_, problem_ws_);
   const int n = problem_.size();
   stats_.active = n;
+  stats_.islands = problem_.islandCount();
   nlgs_ws_.prepare(n, model_.nv);
   // warm start from the previous step's impulses of the same contacts
   P_.assign(n, Vector3::Zero());
@@ -162,6 +163,7 @@ void TimeStepper::solveMoreauJean() {
   const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_);
   stats_.iterations_stage1 = s.iterations;
   stats_.iterations_stage2 = 0;
+  stats_.updates = s.updates;
   stats_.residual = s.residual;
   stats_.status = s.status;
   stats_.cap_hit = s.status == SolverStatus::MaxIterations;
@@ -198,6 +200,7 @@ void TimeStepper::solveCatchingUp() {
   const NlgsStats normal =
       solveNormalStage(problem_, settings_.normal_stage, lambda_N_, v, nlgs_ws_);
   stats_.iterations_stage1 = normal.iterations;
+  stats_.updates = normal.updates;
   stats_.residual = normal.residual;
   stats_.status = normal.status;
   stats_.cap_hit = normal.status == SolverStatus::MaxIterations;
@@ -209,6 +212,7 @@ void TimeStepper::solveCatchingUp() {
         solveFrictionStage(problem_, settings_.friction_stage, settings_.friction, lambda_N_,
                            delta_, lambda_T_, v, nlgs_ws_);
     stats_.iterations_stage2 = friction.iterations;
+    stats_.updates += friction.updates;
     stats_.residual = std::max(stats_.residual, friction.residual);
     stats_.cap_hit = stats_.cap_hit || friction.status == SolverStatus::MaxIterations;
     if (friction.status != SolverStatus::Converged) stats_.status = friction.status;

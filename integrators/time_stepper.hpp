@@ -56,6 +56,8 @@ struct StepStats {
   int active = 0;             // contacts in the solve
   int iterations_stage1 = 0;  // A: the coupled solve; B: normal stage
   int iterations_stage2 = 0;  // B: friction stage (0 when skipped)
+  int islands = 0;            // independent groups of contacts, solved one by one
+  long updates = 0;           // local solves, all stages, islands and sweeps
   double residual = 0.0;      // largest exit residual of the stages
   bool cap_hit = false;
   SolverStatus status = SolverStatus::Converged;

@@ -5,7 +5,10 @@
 
 #include <cmath>
 
+#include "framework/dynamics.hpp"
+#include "framework/kinematics.hpp"
 #include "integrators/time_stepper.hpp"
+#include "models/granular.hpp"
 #include "models/rigid_bodies.hpp"
 
 namespace sweep {
@@ -194,6 +197,56 @@ TEST(NewtonsCradle, SimultaneousImpactLaws) {
     const std::vector<double> plastic = cradle(scheme, 0.0);
     for (double vi : plastic) EXPECT_NEAR(vi, 1.0 / 3.0, 1e-10) << schemeName(scheme);
   }
+}
+
+}  // namespace
+}  // namespace sweep
+
+namespace sweep {
+namespace {
+
+// Contact islands: solving each on its own gives the velocities of one solve over all
+// contacts, to the tolerance.
+TEST(ContactIslands, SameAnswerAsOneSolve) {
+  GranularBoxParameters parameters;
+  parameters.count = 150;
+  parameters.width = 0.08;  // wide: the falling grains form many separate groups
+  const Scene scene = granularBox(parameters);
+  SchemeSettings settings;
+  settings.h = 2e-4;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 120; ++k) stepper.step();
+  EXPECT_GT(stepper.stats().islands, 3);
+
+  const Model& model = scene.model;
+  Data data(model);
+  ContactData cdata(model, scene.cmodel);
+  const VectorX q = stepper.q(), v = stepper.v();
+  forwardKinematics(model, data, q, v);
+  detectContacts(model, data, scene.cmodel, cdata, 0.0,
+                 detectionMargin(model, data, scene.cmodel, settings.h, 0.0));
+  const VectorX v_free =
+      v + settings.h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
+  assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
+  ContactProblem islands;
+  ContactProblemWorkspace pws(model);
+  assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Vel, 0.5 * settings.h, q, v,
+                         islands, pws);
+  ASSERT_GT(islands.islandCount(), 3);
+  ContactProblem whole = islands;
+  whole.island_begin.clear();
+  whole.island_rows.clear();
+  NlgsSettings tight;
+  tight.tolerance = 1e-12;
+  tight.max_iterations = 100000;
+  NlgsWorkspace ws;
+  ws.prepare(islands.size(), model.nv);
+  std::vector<Vector3> P1(islands.size(), Vector3::Zero()), P2 = P1;
+  VectorX v1 = v_free, v2 = v_free;
+  EXPECT_EQ(solveCoulombNlgs(islands, tight, P1, v1, ws).status, SolverStatus::Converged);
+  EXPECT_EQ(solveCoulombNlgs(whole, tight, P2, v2, ws).status, SolverStatus::Converged);
+  EXPECT_LT((v1 - v2).norm(), 1e-9 * v_free.norm());
 }
 
 }  // namespace
