@@ -156,6 +156,32 @@ TEST_P(BothSchemes, BouncingBallRestitutionAndEnergyIdentity) {
   EXPECT_GE(impacts, 5);
 }
 
+// V1 with the Siconos parameters (q0 = 1, e = 0.9, g = 9.81, h = 0.005): the n-th impact
+// step lies within n h of the analytic impact time t_n = t1 + (2 v1 / g) sum_{j<n} e^j.
+TEST_P(BothSchemes, BouncingBallImpactTimes) {
+  const double e = 0.9, g = 9.81, h = 0.005, r = 0.1;
+  const BallOnFloor scene(1.0, r, 0.0, e, Vector3(0, 0, -g));
+  TimeStepper stepper(scene.model, scene.cmodel, settings(h));
+  stepper.reset(0.0, scene.at(1.0 + r), VectorX::Zero(6));
+  std::vector<double> impacts;
+  while (stepper.time() < 3.5) {
+    const double vz = stepper.v()[2];
+    stepper.step();
+    // an impact step: the contact reverses a falling velocity
+    if (vz < -0.5 && stepper.v()[2] > 0.0) impacts.push_back(stepper.time() - 0.5 * h);
+  }
+  ASSERT_GE(impacts.size(), 5u);
+  const double t1 = std::sqrt(2.0 / g), v1 = g * t1;
+  double t_n = t1, sum = 0.0;
+  for (std::size_t n = 0; n < 5; ++n) {
+    if (n > 0) {
+      sum += std::pow(e, static_cast<double>(n));
+      t_n = t1 + 2.0 * v1 / g * sum;
+    }
+    EXPECT_NEAR(impacts[n], t_n, (n + 1) * h) << "impact " << n + 1;
+  }
+}
+
 // Several balls sliding and spinning on a rough floor, one contact each (W_NT = 0, e = 0):
 // both schemes solve the same Coulomb problem.
 TEST(SchemesAgree, DecoupledContacts) {
