@@ -31,6 +31,30 @@ ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
   }
 }
 
+void ContactProblem::pack2d() {
+  rows2d.clear();
+  h2d.clear();
+  minv2d.clear();
+  if (dimension != 2) return;
+  for (int c = 0; c < size(); ++c) {
+    PackedRow2d row;
+    row.W = delassus[c].topLeftCorner<2, 2>();
+    row.W_inverse = delassus_inverse[c].topLeftCorner<2, 2>();
+    row.known = known[c].head<2>();
+    row.bias = normal_bias[c];
+    row.mu = friction[c];
+    row.normal_inverse = normal_compliance_inverse[c];
+    row.begin = static_cast<int>(h2d.size());
+    for (int k = begin[c]; k < begin[c + 1]; ++k) h2d.push_back({h[k].x(), h[k].y(), dof[k]});
+    row.end = static_cast<int>(h2d.size());
+    row.minv_begin = static_cast<int>(minv2d.size());
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k)
+      minv2d.push_back({minv_h[k].x(), minv_h[k].y(), minv_dof[k]});
+    row.minv_end = static_cast<int>(minv2d.size());
+    rows2d.push_back(row);
+  }
+}
+
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& p,
@@ -172,6 +196,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   ws.touched.assign(island_begin.begin(), island_begin.end() - 1);  // fill cursors
   for (int c = 0; c < n; ++c)
     p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
+  p.pack2d();
 }
 
 }  // namespace sweep

@@ -50,6 +50,25 @@ struct ContactProblem {
   std::vector<int> island_begin;
   std::vector<int> island_rows;
 
+  // 2D scenes: the same data packed per row, so that one local update reads two cache lines
+  // of row data and one stream per row set (filled by pack2d(); empty in 3D)
+  struct PackedRow2d {
+    Matrix2 W;
+    Matrix2 W_inverse;
+    Vector2 known;
+    double bias = 0.0;
+    double mu = 0.0;
+    double normal_inverse = 0.0;  // 1 / W_NN
+    int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
+  };
+  struct PackedEntry2d {
+    double normal = 0.0, tangent = 0.0;
+    int dof = 0;
+  };
+  std::vector<PackedRow2d> rows2d;
+  std::vector<PackedEntry2d> h2d, minv2d;
+  void pack2d();  // from the arrays above; call after changing them
+
   int size() const { return static_cast<int>(contact.size()); }
   int islandCount() const {
     return island_begin.empty() ? 1 : static_cast<int>(island_begin.size()) - 1;

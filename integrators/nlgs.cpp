@@ -140,15 +140,48 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
 }
 
 namespace {
+// One 2D update on the packed rows: the same arithmetic as the generic path below.
+inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
+                            const ContactProblem::PackedEntry2d* h,
+                            const ContactProblem::PackedEntry2d* minv, double omega, Vector3& P,
+                            VectorX& v, double& change2, double& size2, int& failures) {
+  Vector2 u = r.known;
+  for (int k = r.begin; k < r.end; ++k) u += Vector2(h[k].normal, h[k].tangent) * v[h[k].dof];
+  const Vector2 P_old = P.head<2>();
+  Vector2 q = u - r.W * P_old;
+  q.x() += r.bias;
+  Vector2 P_new;
+  if (r.mu == 0.0) {
+    P_new = Vector2(std::max(-q.x() * r.W_inverse(0, 0), 0.0), 0.0);
+  } else if (!solveCoulomb2d(r.W, r.W_inverse, q, r.mu, P_new)) {
+    ++failures;
+  }
+  if (omega != 1.0) P_new = omega * P_new + (1.0 - omega) * P_old;
+  const Vector2 dP = P_new - P_old;
+  for (int k = r.minv_begin; k < r.minv_end; ++k)
+    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent * dP.y();
+  P.head<2>() = P_new;
+  change2 += dP.squaredNorm();
+  size2 += P_new.squaredNorm();
+}
+
 NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
                         std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws, int n) {
   NlgsStats stats;
   const double omega = settings.relaxation;
+  const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
     stats.local_failures = 0;
-    for (int k = 0; k < n; ++k) {
+    if (packed) {
+      for (int k = 0; k < n; ++k) {
+        const int c = ws.order[k];
+        coulombUpdate2d(p.rows2d[c], p.h2d.data(), p.minv2d.data(), omega, P[c], v, change2, size2,
+                        stats.local_failures);
+      }
+    }
+    for (int k = 0; k < (packed ? 0 : n); ++k) {
       const int c = ws.order[k];
       const Matrix3& W = p.delassus[c];
       // local free velocity: the current one without this contact's own impulse
@@ -237,10 +270,30 @@ namespace {
 NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
                        std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws, int n) {
   NlgsStats stats;
+  const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
-    for (int k = 0; k < n; ++k) {
+    if (packed) {
+      // the update below on the packed 2D rows
+      const ContactProblem::PackedEntry2d* h = p.h2d.data();
+      const ContactProblem::PackedEntry2d* minv = p.minv2d.data();
+      for (int k = 0; k < n; ++k) {
+        const int c = ws.order[k];
+        const ContactProblem::PackedRow2d& r = p.rows2d[c];
+        double U_star = r.known.x() + r.bias;
+        for (int e = r.begin; e < r.end; ++e) U_star += h[e].normal * v[h[e].dof];
+        const double lambda_new =
+            std::max(lambda_N[c] - settings.relaxation * U_star * r.normal_inverse, 0.0);
+        const double d_lambda = lambda_new - lambda_N[c];
+        for (int e = r.minv_begin; e < r.minv_end; ++e) v[minv[e].dof] += minv[e].normal * d_lambda;
+        lambda_N[c] = lambda_new;
+        const double W_NN = r.W(0, 0);
+        change2 += W_NN * d_lambda * d_lambda;
+        size2 += W_NN * lambda_new * lambda_new;
+      }
+    }
+    for (int k = 0; k < (packed ? 0 : n); ++k) {
       const int c = ws.order[k];
       // unit diagonal in the scaled variables Lambda = s lambda, xi = U*_N / s (s^2 = W_NN):
       // Lambda <- [Lambda - omega xi]_+ is, in physical units, the clamp below
