@@ -6,11 +6,10 @@
 #include <cstdlib>
 #include <new>
 
-#include "framework/dynamics.hpp"
-#include "framework/kinematics.hpp"
 #include "integrators/nlgs.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
+#include "solver_fixtures.hpp"
 
 namespace {
 std::atomic<bool> counting{false};
@@ -55,19 +54,9 @@ TEST(NoAllocation, InsideEverySolver) {
     for (int k = 0; k < 400; ++k) stepper.step();
 
     const Model& model = scene.model;
-    Data data(model);
-    ContactData cdata(model, scene.cmodel);
-    const VectorX q = stepper.q(), v = stepper.v();
-    forwardKinematics(model, data, q, v);
-    detectContacts(model, data, scene.cmodel, cdata, 0.0,
-                   detectionMargin(model, data, scene.cmodel, settings.h, 0.0));
-    const VectorX v_free =
-        v + settings.h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
-    assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
-    ContactProblem problem;
-    ContactProblemWorkspace pws(model);
-    assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Pos, 0.5 * settings.h, q, v,
-                           problem, pws);
+    const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Pos);
+    const ContactProblem& problem = step.problem;
+    const VectorX& v_free = step.v_free;
     const int n = problem.size();
     ASSERT_GT(n, 50);
     NlgsWorkspace ws;

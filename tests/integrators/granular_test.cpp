@@ -8,6 +8,7 @@
 
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
+#include "solver_fixtures.hpp"
 
 namespace sweep {
 namespace {
@@ -64,10 +65,7 @@ TEST_P(GranularPile, SettlesWithoutBlowUp) {
 
 INSTANTIATE_TEST_SUITE_P(Schemes, GranularPile,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
-                         [](const auto& param_info) {
-                           return param_info.param == Scheme::MoreauJean ? "MoreauJean"
-                                                                         : "CatchingUp";
-                         });
+                         test::schemeTestName);
 
 }  // namespace
 }  // namespace sweep

@@ -10,6 +10,7 @@
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
 #include "models/rigid_bodies.hpp"
+#include "solver_fixtures.hpp"
 
 namespace sweep {
 namespace {
@@ -220,19 +221,9 @@ TEST(ContactIslands, SameAnswerAsOneSolve) {
   EXPECT_GT(stepper.stats().islands, 3);
 
   const Model& model = scene.model;
-  Data data(model);
-  ContactData cdata(model, scene.cmodel);
-  const VectorX q = stepper.q(), v = stepper.v();
-  forwardKinematics(model, data, q, v);
-  detectContacts(model, data, scene.cmodel, cdata, 0.0,
-                 detectionMargin(model, data, scene.cmodel, settings.h, 0.0));
-  const VectorX v_free =
-      v + settings.h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
-  assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
-  ContactProblem islands;
-  ContactProblemWorkspace pws(model);
-  assembleContactProblem(model, data, scene.cmodel, cdata, NormalLaw::Vel, 0.5 * settings.h, q, v,
-                         islands, pws);
+  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Vel);
+  const ContactProblem& islands = step.problem;
+  const VectorX& v_free = step.v_free;
   ASSERT_GT(islands.islandCount(), 3);
   ContactProblem whole = islands;
   whole.island_begin.clear();

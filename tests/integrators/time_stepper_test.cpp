@@ -8,6 +8,7 @@
 #include "framework/kinematics.hpp"
 #include "models/granular.hpp"
 #include "models/rigid_bodies.hpp"
+#include "solver_fixtures.hpp"
 
 namespace sweep {
 namespace {
@@ -343,10 +344,7 @@ TEST(Determinism, ShuffledSweepsRepeat) {
 
 INSTANTIATE_TEST_SUITE_P(Schemes, BothSchemes,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
-                         [](const auto& param_info) {
-                           return param_info.param == Scheme::MoreauJean ? "MoreauJean"
-                                                                         : "CatchingUp";
-                         });
+                         test::schemeTestName);
 
 }  // namespace
 }  // namespace sweep
