@@ -242,6 +242,50 @@ TEST(BlockOnIncline, TwoCornerSliding) {
   }
 }
 
+// V4: a solid disk on an incline rolls without slip iff mu >= tan(a) / 3. With tan a = 0.6
+// and mu = 0.25 it rolls: a_G = 2/3 g sin a, for A and for B with the PHYSICAL threshold
+// (W_NT = 0). The METRIC threshold bounds |lambda_T| by mu lambda_N sqrt(W_NN / W_TT), i.e.
+// mu / sqrt(1 + m R^2 / I) = mu / sqrt(3): the rolling condition becomes mu >= tan(a) /
+// sqrt(3) = 0.35, and the disk slides with g (sin a - mu / sqrt(3) cos a). It changes
+// Coulomb's classical threshold.
+TEST(DiskOnIncline, RollingThresholdSeparatesTheFrictionThresholds) {
+  const double a = std::atan(0.6), mu = 0.25, g = 9.81, h = 1e-3, R = 0.1;
+  ModelBuilder mb("disk on incline");
+  addPlanarBody(mb, "disk", solidDiskInertia(1.0, R));
+  mb.setGravity(Vector3(0, -g, 0));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.materials().setDefaultLaw({mu, 0.0});
+  cb.addGeometry("disk", BodyRef::dynamic(0), Pose::identity(), Shape::disk(R));
+  Pose slope;
+  slope.rotation = Eigen::AngleAxisd(a, Vector3::UnitZ()).toRotationMatrix();
+  cb.addGeometry("slope", BodyRef::world(), slope, Shape::halfPlane());
+  const ContactModel cmodel = cb.build();
+  const Vector3 up_normal(-std::sin(a), std::cos(a), 0.0);
+  const Vector3 down(-std::cos(a), -std::sin(a), 0.0);
+  VectorX q(3);
+  q << R * up_normal.x(), R * up_normal.y(), 0.0;
+
+  auto acceleration = [&](Scheme scheme, FrictionThreshold threshold) {
+    SchemeSettings s;
+    s.scheme = scheme;
+    s.h = h;
+    s.friction.threshold = threshold;
+    s.coulomb.tolerance = s.normal_stage.tolerance = s.friction_stage.tolerance = 1e-12;
+    TimeStepper stepper(model, cmodel, s);
+    stepper.reset(0.0, q, VectorX::Zero(3));
+    for (int k = 0; k < 10; ++k) stepper.step();
+    const double v0 = down.head<2>().dot(stepper.v().head<2>());
+    for (int k = 0; k < 500; ++k) stepper.step();
+    return (down.head<2>().dot(stepper.v().head<2>()) - v0) / (500 * h);
+  };
+  const double rolling = 2.0 / 3.0 * g * std::sin(a);
+  const double metric_sliding = g * (std::sin(a) - mu / std::sqrt(3.0) * std::cos(a));
+  EXPECT_NEAR(acceleration(Scheme::MoreauJean, FrictionThreshold::Physical), rolling, 1e-9);
+  EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Physical), rolling, 1e-9);
+  EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Metric), metric_sliding, 1e-9);
+}
+
 // Several balls sliding and spinning on a rough floor, one contact each (W_NT = 0, e = 0):
 // both schemes solve the same Coulomb problem.
 TEST(SchemesAgree, DecoupledContacts) {
