@@ -286,6 +286,46 @@ TEST(DiskOnIncline, RollingThresholdSeparatesTheFrictionThresholds) {
   EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Metric), metric_sliding, 1e-9);
 }
 
+// V5, Housner's rocking block: width 2b = 1, height 2c = 1.5, corners sticking (mu = 1),
+// e = 0. Each corner impact multiplies the angular velocity by 1 - 3/2 sin^2(s),
+// tan s = b / c: 0.5385. The tolerance, 1 %, covers what gravity adds to omega within the
+// impact step (about 0.1 % at h = 1e-4) and the pre-impact rotation at the midpoint.
+TEST_P(BothSchemes, RockingBlockHousnerRatio) {
+  const double b = 0.5, c = 0.75, h = 1e-4, theta0 = -0.1;
+  ModelBuilder mb("rocking block");
+  addPlanarBody(mb, "block", solidBoxInertia(1.0, Vector3(2 * b, 2 * c, 0.01)));
+  mb.setGravity(Vector3(0, -9.81, 0));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.materials().setDefaultLaw({1.0, 0.0});
+  cb.addGeometry("block", BodyRef::dynamic(0), Pose::identity(),
+                 Shape::polygon({{-b, -c}, {b, -c}, {b, c}, {-b, c}}));
+  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfPlane());
+  const ContactModel cmodel = cb.build();
+  // tilted clockwise on its bottom-right corner, which sits at the origin
+  const Eigen::Rotation2Dd R(theta0);
+  const Vector2 centre = -(R * Vector2(b, -c));
+  VectorX q(3);
+  q << centre.x(), centre.y(), theta0;
+  TimeStepper stepper(model, cmodel, settings(h));
+  stepper.reset(0.0, q, VectorX::Zero(3));
+  const double s = std::atan(b / c);
+  const double expected = 1.0 - 1.5 * std::sin(s) * std::sin(s);
+  int impacts = 0;
+  for (int k = 0; k < 40000 && impacts < 2; ++k) {
+    const double before = stepper.v()[2];
+    stepper.step();
+    const double after = stepper.v()[2];
+    if (std::abs(before) > 0.05 && std::abs(after) < 0.8 * std::abs(before)) {
+      EXPECT_NEAR(after / before, expected, 0.01) << "impact " << impacts + 1;
+      std::printf("V5 %s impact %d: omega+/omega- = %.4f (Housner %.4f)\n", schemeName(GetParam()),
+                  impacts + 1, after / before, expected);
+      ++impacts;
+    }
+  }
+  EXPECT_EQ(impacts, 2);
+}
+
 // Several balls sliding and spinning on a rough floor, one contact each (W_NT = 0, e = 0):
 // both schemes solve the same Coulomb problem.
 TEST(SchemesAgree, DecoupledContacts) {
