@@ -286,6 +286,47 @@ TEST(DiskOnIncline, RollingThresholdSeparatesTheFrictionThresholds) {
   EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Metric), metric_sliding, 1e-9);
 }
 
+// V4 in 3D: a solid sphere rolls iff mu >= 2/7 tan a (0.171 at tan a = 0.6); the METRIC
+// bound, mu / sqrt(1 + m R^2 / I) = mu / sqrt(3.5), moves it to 0.32. With mu = 0.25: A and
+// B PHYSICAL roll at 5/7 g sin a; B METRIC slides at g (sin a - mu / sqrt(3.5) cos a).
+TEST(SphereOnIncline, RollingThresholdIn3d) {
+  const double a = std::atan(0.6), mu = 0.25, g = 9.81, h = 1e-3, R = 0.1;
+  ModelBuilder mb("sphere on incline");
+  addFreeBody(mb, "ball", solidSphereInertia(1.0, R));
+  mb.setGravity(Vector3(0, 0, -g));
+  const Model model = mb.build();
+  ContactModelBuilder cb(model);
+  cb.materials().setDefaultLaw({mu, 0.0});
+  cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(R));
+  Pose slope;  // tilted about y: downhill is -x
+  slope.rotation = Eigen::AngleAxisd(-a, Vector3::UnitY()).toRotationMatrix();
+  cb.addGeometry("slope", BodyRef::world(), slope, Shape::halfSpace());
+  const ContactModel cmodel = cb.build();
+  const Vector3 normal = slope.rotation.col(2);
+  const Vector3 down = -slope.rotation.col(0);
+  VectorX q = model.neutralConfiguration();
+  q.head<3>() = R * normal;
+
+  auto acceleration = [&](Scheme scheme, FrictionThreshold threshold) {
+    SchemeSettings s;
+    s.scheme = scheme;
+    s.h = h;
+    s.friction.threshold = threshold;
+    s.coulomb.tolerance = s.normal_stage.tolerance = s.friction_stage.tolerance = 1e-12;
+    TimeStepper stepper(model, cmodel, s);
+    stepper.reset(0.0, q, VectorX::Zero(6));
+    for (int k = 0; k < 10; ++k) stepper.step();
+    const double v0 = down.dot(stepper.v().head<3>());
+    for (int k = 0; k < 500; ++k) stepper.step();
+    return (down.dot(stepper.v().head<3>()) - v0) / (500 * h);
+  };
+  const double rolling = 5.0 / 7.0 * g * std::sin(a);
+  const double metric_sliding = g * (std::sin(a) - mu / std::sqrt(3.5) * std::cos(a));
+  EXPECT_NEAR(acceleration(Scheme::MoreauJean, FrictionThreshold::Physical), rolling, 1e-9);
+  EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Physical), rolling, 1e-9);
+  EXPECT_NEAR(acceleration(Scheme::CatchingUp, FrictionThreshold::Metric), metric_sliding, 1e-9);
+}
+
 // V5, Housner's rocking block: width 2b = 1, height 2c = 1.5, corners sticking (mu = 1),
 // e = 0. Each corner impact multiplies the angular velocity by 1 - 3/2 sin^2(s),
 // tan s = b / c: 0.5385. The tolerance, 1 %, covers what gravity adds to omega within the
