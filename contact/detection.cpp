@@ -237,10 +237,16 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
   sortPairs(cmodel.size(), cdata);
   cdata.stats = DetectionStats{};
 
+  // a driven body past its removal time (a pulled shutter) meets nothing
+  auto removed = [&](int g) {
+    const BodyRef& body = cmodel.traits[g].body_ref;
+    return body.kind == BodyRef::Kind::Driven && !model.driven_bodies[body.index].presentAt(t);
+  };
+
   // narrowphase, then identity across steps (both lists sorted by key) and frames
   std::size_t previous = 0;
   for (const auto& [a, b] : cdata.pairs) {
-    if (!cmodel.mayCollide(a, b)) continue;
+    if (!cmodel.mayCollide(a, b) || removed(a) || removed(b)) continue;
     ++cdata.stats.broadphase_pairs;
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];

@@ -1,5 +1,8 @@
 #include "framework/model.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <Eigen/Cholesky>
 #include <map>
 #include <sstream>
@@ -31,6 +34,48 @@ DrivenBody DrivenBody::constantTwist(const std::string& name, const Pose& pose0,
   auto twist = [=](double) {
     Vector6 m;
     m << angular_velocity, linear_velocity;
+    return m;
+  };
+  return DrivenBody{name, pose, twist};
+}
+
+DrivenBody DrivenBody::keyframes(const std::string& name, const Matrix3& rotation,
+                                 const std::vector<double>& times,
+                                 const std::vector<Vector3>& positions) {
+  if (times.empty() || times.size() != positions.size())
+    throw InputError("driven body '" + name + "': keyframes need as many times as positions");
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    if (!std::isfinite(times[k]) || !positions[k].allFinite())
+      throw InputError("driven body '" + name + "': keyframe " + std::to_string(k) +
+                       " is not finite");
+    if (k > 0 && !(times[k] > times[k - 1]))
+      throw InputError("driven body '" + name + "': keyframe times must increase, got " +
+                       std::to_string(times[k - 1]) + " then " + std::to_string(times[k]));
+  }
+  // the segment holding t: [times[k], times[k+1]), or -1 / last outside the span
+  auto segment = [times](double t) {
+    const auto upper = std::upper_bound(times.begin(), times.end(), t);
+    return static_cast<int>(upper - times.begin()) - 1;
+  };
+  auto pose = [=](double t) {
+    Pose p;
+    p.rotation = rotation;
+    const int k = segment(t);
+    if (k < 0) {
+      p.translation = positions.front();
+    } else if (k + 1 >= static_cast<int>(times.size())) {
+      p.translation = positions.back();
+    } else {
+      const double s = (t - times[k]) / (times[k + 1] - times[k]);
+      p.translation = (1.0 - s) * positions[k] + s * positions[k + 1];
+    }
+    return p;
+  };
+  auto twist = [=](double t) {
+    Vector6 m = Vector6::Zero();
+    const int k = segment(t);
+    if (k >= 0 && k + 1 < static_cast<int>(times.size()))
+      m.tail<3>() = (positions[k + 1] - positions[k]) / (times[k + 1] - times[k]);
     return m;
   };
   return DrivenBody{name, pose, twist};

@@ -4,6 +4,7 @@
 // collision geometry records. Built once by ModelBuilder; algorithms take it by const
 // reference together with a Data workspace (framework/data.hpp).
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -73,10 +74,19 @@ struct DrivenBody {
   std::function<Pose(double)> pose;  // body frame in world at time t
   // world-frame twist (angular velocity, velocity of the body origin) at time t
   std::function<Vector6(double)> twist;
+  // from this time on the body is gone (a shutter pulled away): it meets nothing
+  double removal_time = std::numeric_limits<double>::infinity();
+
+  bool presentAt(double t) const { return t < removal_time; }
 
   static DrivenBody fixed(const std::string& name, const Pose& pose);
   static DrivenBody constantTwist(const std::string& name, const Pose& pose0,
                                   const Vector3& linear_velocity, const Vector3& angular_velocity);
+  // Origin moving piecewise linearly through `positions` at strictly increasing `times`,
+  // orientation fixed; it rests at the first and last keyframe outside their span.
+  static DrivenBody keyframes(const std::string& name, const Matrix3& rotation,
+                              const std::vector<double>& times,
+                              const std::vector<Vector3>& positions);
 };
 
 struct Model {

@@ -1,0 +1,188 @@
+// `sweep`: runs scene files. Subcommands: run, bench, check, export (docs/cli.md).
+// Exit codes: 0 success, 2 bad input, 1 runtime failure.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "apps/sweep/bench.hpp"
+#include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_file.hpp"
+#include "framework/error.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void onSignal(int) {
+  g_stop.store(true);
+}
+
+// `sweep check` and the head of `sweep run`: what the scene is and what the pipeline skips.
+void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std::ostream& out) {
+  const sweep::Model& model = scene.model;
+  int constant = 0;
+  for (const sweep::Component& c : model.components) constant += c.constant_mass ? 1 : 0;
+  out << file.path << ": " << file.spec.dimension << "D scene, " << model.bodies.size()
+      << " bodies in " << model.components.size() << " components (" << constant
+      << " with a constant mass block, never rebuilt), " << model.driven_bodies.size()
+      << " driven, nq = " << model.nq << ", nv = " << model.nv << "\n";
+  out << "  " << sweep::describe(scene.cmodel) << "\n";
+  const sweep::SchemeSettings& s = file.run.scheme;
+  out << "  scheme: " << sweep::schemeName(s.scheme) << ", h = " << s.h
+      << " s, t_end = " << file.run.t_end << " s, normal law "
+      << sweep::normalLawName(s.normal_law);
+  if (s.scheme == sweep::Scheme::CatchingUp)
+    out << ", tangents " << sweep::tangentModeName(s.friction.tangents) << ", threshold "
+        << sweep::frictionThresholdName(s.friction.threshold) << ", caps "
+        << s.normal_stage.max_iterations << " + " << s.friction_stage.max_iterations;
+  else
+    out << ", cap " << s.coulomb.max_iterations;
+  out << ", tolerance "
+      << (s.scheme == sweep::Scheme::CatchingUp ? s.normal_stage.tolerance : s.coulomb.tolerance)
+      << "\n";
+}
+
+sweep::Scene buildOrExplain(const sweep::SceneFile& file) {
+  try {
+    return sweep::buildScene(file.spec);
+  } catch (const sweep::InputError& e) {
+    const std::string message = e.what();
+    if (message.rfind(file.path, 0) == 0) throw;
+    throw sweep::InputError(file.path + ": " + message);
+  }
+}
+
+void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {
+  out << std::setprecision(4);
+  out << "\n"
+      << s.scheme << (s.interrupted ? " (INTERRUPTED)" : "") << ": " << s.steps << " steps of "
+      << s.dt << " s to t = " << s.t_reached << " s\n"
+      << "  cpu " << s.cpu_seconds << " s, wall " << s.wall_seconds << " s ("
+      << (s.wall_seconds > 0 ? s.steps / s.wall_seconds : 0.0) << " steps/s)\n"
+      << "  iterations per step: mean " << s.iterations.mean << ", p50 " << s.iterations.p50
+      << ", p95 " << s.iterations.p95 << ", max " << s.iterations.max << "; cap hit in "
+      << s.cap_hit_steps << " steps\n"
+      << "  penetration: cumulative " << s.penetration_cumulative << " m, time integral "
+      << s.penetration_time_integral << " m s, peak " << s.penetration_peak << " m\n"
+      << "  active contacts: mean " << s.mean_active << ", max " << s.max_active << "\n"
+      << "  energy: " << s.energy_initial << " J -> " << s.energy_final << " J\n";
+  if (s.updates > 0)
+    out << "  solver: " << s.updates << " local solves, "
+        << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";
+  if (!out_dir.empty()) out << "  results in " << out_dir << "/\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Sweep: nonsmooth contact dynamics of multibody systems"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "sweep 0.1.0");
+
+  std::string scene_path, out_dir, scheme_name;
+  std::vector<std::string> overrides;
+  double dt = 0.0, t_end = 0.0;
+  bool quiet = false;
+  auto addSceneOptions = [&](CLI::App* command) {
+    command->add_option("scene", scene_path, "scene file (YAML)")->required();
+    command->add_option("--set", overrides, "override a scene field: path=value (repeatable)");
+  };
+
+  CLI::App* run = app.add_subcommand("run", "run a scene and write its results");
+  addSceneOptions(run);
+  run->add_option("--scheme", scheme_name, "moreau-jean or catching-up");
+  run->add_option("--dt", dt, "time step h (s)");
+  run->add_option("--t-end", t_end, "end time (s)");
+  run->add_option("--out", out_dir, "output folder")->default_val("results");
+  run->add_flag("--quiet", quiet, "no progress");
+
+  sweep::BenchOptions bench_options;
+  CLI::App* bench = app.add_subcommand("bench", "run time against penetration over h and schemes");
+  addSceneOptions(bench);
+  bench->add_option("--dt", bench_options.steps, "time steps (comma-separated)")
+      ->delimiter(',')
+      ->required();
+  bench->add_option("--scheme", bench_options.schemes, "schemes (comma-separated)")
+      ->delimiter(',')
+      ->default_val(std::vector<std::string>{"moreau-jean", "catching-up"});
+  bench->add_option("--repeat", bench_options.repeat, "runs per point (the fastest counts)")
+      ->default_val(1);
+  bench->add_option("--t-end", t_end, "end time (s)");
+  bench->add_option("--out", out_dir, "output folder")->default_val("bench");
+  bench->add_flag("--no-plots", bench_options.no_plots, "write bench.csv only");
+  bench->add_flag("--quiet", quiet, "no progress");
+
+  CLI::App* check = app.add_subcommand("check", "validate a scene and describe it");
+  addSceneOptions(check);
+
+  std::string export_path;
+  CLI::App* exporter =
+      app.add_subcommand("export", "write the scene with every body listed (no generators)");
+  addSceneOptions(exporter);
+  exporter->add_option("output", export_path, "explicit scene file to write")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  try {
+    sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides);
+    if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
+    if (run->parsed() && run->count("--dt") > 0) {
+      if (!(dt > 0.0) || !std::isfinite(dt))
+        throw sweep::InputError("--dt: must be > 0, got " + std::to_string(dt));
+      file.run.scheme.h = dt;
+    }
+    if ((run->parsed() || bench->parsed()) &&
+        app.get_subcommand(run->parsed() ? "run" : "bench")->count("--t-end") > 0) {
+      if (!(t_end > 0.0) || !std::isfinite(t_end))
+        throw sweep::InputError("--t-end: must be > 0, got " + std::to_string(t_end));
+      file.run.t_end = t_end;
+    }
+    const sweep::Scene scene = buildOrExplain(file);
+    file.run.scheme.validate();
+
+    if (check->parsed()) {
+      describeScene(file, scene, std::cout);
+      std::cout << "scene is valid\n";
+      return 0;
+    }
+    if (exporter->parsed()) {
+      sweep::writeSceneFile(file, export_path);
+      std::cout << "wrote " << export_path << " (" << file.spec.bodies.size() << " bodies)\n";
+      return 0;
+    }
+    if (run->parsed()) {
+      describeScene(file, scene, std::cout);
+      sweep::RunOptions options;
+      options.out_dir = out_dir;
+      options.log = &std::cerr;
+      options.progress = !quiet;
+      options.progress_bar = isatty(STDERR_FILENO) != 0;
+      options.stop = &g_stop;
+      const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
+      printSummary(summary, out_dir, std::cout);
+      return summary.interrupted ? 130 : 0;
+    }
+    bench_options.out_dir = out_dir;
+    bench_options.log = quiet ? nullptr : &std::cerr;
+    bench_options.stop = &g_stop;
+    describeScene(file, scene, std::cout);
+    return sweep::runBench(file, scene, bench_options, std::cout);
+  } catch (const sweep::InputError& e) {
+    std::cerr << "sweep: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "sweep: failed: " << e.what() << "\n";
+    return 1;
+  }
+}

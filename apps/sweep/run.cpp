@@ -1,0 +1,273 @@
+#include "apps/sweep/run.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "apps/sweep/vtk_writer.hpp"
+#include "framework/error.hpp"
+
+namespace sweep {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+std::string formatDuration(double seconds) {
+  std::ostringstream s;
+  if (!std::isfinite(seconds)) return "?";
+  const long total = std::lround(seconds);
+  if (total >= 3600) s << total / 3600 << "h";
+  if (total >= 60)
+    s << std::setw(total >= 3600 ? 2 : 1) << std::setfill('0') << (total / 60) % 60 << "m";
+  s << std::setw(total >= 60 ? 2 : 1) << std::setfill('0') << total % 60 << "s";
+  return s.str();
+}
+
+// Shortest text that reads back to the same double: the CSV and JSON are exact records.
+std::string exact(double x) {
+  std::ostringstream s;
+  s << std::setprecision(17) << x;
+  return s.str();
+}
+
+const char* kStatsHeader =
+    "step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,pen_sum,"
+    "pen_count,kinetic,potential,work_normal,work_tangent,t_detect,t_assemble,t_solve,t_update\n";
+
+void appendStatsRow(std::ostream& out, const StepStats& s) {
+  out << s.step << ',' << exact(s.t) << ',' << s.candidates << ',' << s.active << ','
+      << s.iterations_stage1 << ',' << s.iterations_stage2 << ',' << exact(s.residual) << ','
+      << (s.cap_hit ? 1 : 0) << ',' << exact(s.penetration_max) << ',' << exact(s.penetration_sum)
+      << ',' << s.penetration_count << ',' << exact(s.kinetic) << ',' << exact(s.potential) << ','
+      << exact(s.work_normal) << ',' << exact(s.work_tangent) << ',' << exact(s.t_detect) << ','
+      << exact(s.t_assemble) << ',' << exact(s.t_solve) << ',' << exact(s.t_update) << '\n';
+}
+
+class Progress {
+ public:
+  Progress(const RunOptions& options, long steps, double dt)
+      : options_(options), steps_(steps), dt_(dt), start_(Clock::now()), last_(start_) {}
+
+  void update(long step, bool last) {
+    if (!options_.progress || options_.log == nullptr) return;
+    const auto now = Clock::now();
+    const double since = std::chrono::duration<double>(now - last_).count();
+    // a bar redraws 5 times a second; plain lines every 5 s, enough for a log file
+    if (!last && since < (options_.progress_bar ? 0.2 : 5.0)) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double rate = elapsed > 0.0 ? step / elapsed : 0.0;
+    const double eta = rate > 0.0 ? (steps_ - step) / rate : NAN;
+    const double fraction = static_cast<double>(step) / static_cast<double>(steps_);
+    std::ostream& out = *options_.log;
+    std::ostringstream line;
+    line << std::fixed << std::setprecision(0) << std::setw(3) << 100.0 * fraction << "% step "
+         << step << "/" << steps_ << "  t = " << std::setprecision(5) << step * dt_ << " s  "
+         << std::setprecision(0) << rate << " steps/s  ETA " << formatDuration(eta);
+    if (options_.progress_bar) {
+      const int width = 24;
+      const int filled = static_cast<int>(fraction * width);
+      out << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] "
+          << line.str() << "   " << (last ? "\n" : "") << std::flush;
+    } else {
+      out << line.str() << "\n" << std::flush;
+    }
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  const RunOptions& options_;
+  long steps_;
+  double dt_;
+  Clock::time_point start_, last_;
+};
+
+}  // namespace
+
+Distribution distributionOf(std::vector<int> values) {
+  Distribution d;
+  if (values.empty()) return d;
+  std::sort(values.begin(), values.end());
+  double sum = 0.0;
+  for (int v : values) sum += v;
+  d.mean = sum / static_cast<double>(values.size());
+  // nearest-rank percentiles
+  auto rank = [&](double p) {
+    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(values.size())));
+    return static_cast<double>(values[std::clamp<std::size_t>(k, 1, values.size()) - 1]);
+  };
+  d.p50 = rank(0.50);
+  d.p95 = rank(0.95);
+  d.p99 = rank(0.99);
+  d.max = values.back();
+  return d;
+}
+
+void writeFileAtomically(const std::string& path, const std::string& text) {
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary);
+    out << text;
+    out.flush();
+    if (!out.good()) throw std::runtime_error(partial + ": cannot write (disk full?)");
+  }
+  std::error_code error;
+  fs::rename(partial, path, error);
+  if (error) throw std::runtime_error(path + ": cannot rename into place: " + error.message());
+}
+
+RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
+  settings.scheme.validate();
+  if (!(settings.t_end > 0.0) || !std::isfinite(settings.t_end))
+    throw InputError("t_end must be > 0, got " + exact(settings.t_end));
+  const double h = settings.scheme.h;
+  const long steps = std::max(1L, std::lround(settings.t_end / h));
+  if (steps > 2000000000L)
+    throw InputError("t_end / dt = " + exact(settings.t_end / h) + " steps is too many");
+
+  const bool files = !options.out_dir.empty();
+  if (files) {
+    std::error_code error;
+    fs::create_directories(options.out_dir, error);
+    if (error)
+      throw std::runtime_error(options.out_dir + ": cannot create the folder: " + error.message());
+  }
+  // stats.csv grows step by step under its temporary name; renamed when the run ends
+  const std::string stats_path = options.out_dir + "/stats.csv";
+  std::ofstream stats;
+  if (files && settings.output.stats) {
+    stats.open(stats_path + ".partial", std::ios::binary);
+    if (!stats) throw std::runtime_error(stats_path + ".partial: cannot open for writing");
+    stats << kStatsHeader;
+  }
+  std::unique_ptr<VtkSeries> vtk;
+  const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;
+  if (files && snapshots) vtk = std::make_unique<VtkSeries>(scene, options.out_dir);
+
+  TimeStepper stepper(scene.model, scene.cmodel, settings.scheme);
+  stepper.reset(0.0, scene.q0, scene.v0);
+
+  RunSummary summary;
+  summary.scheme = schemeName(settings.scheme.scheme);
+  summary.dt = h;
+  summary.t_end = settings.t_end;
+  summary.energy_initial = stepper.energy();
+  std::vector<int> total, stage1, stage2;
+  total.reserve(steps);
+  stage1.reserve(steps);
+  stage2.reserve(steps);
+  double active_sum = 0.0;
+  double next_snapshot = 0.0;
+  if (vtk) {
+    vtk->write(stepper);
+    next_snapshot = settings.output.vtk_interval;
+  }
+
+  Progress progress(options, steps, h);
+  const auto wall_start = std::chrono::steady_clock::now();
+  const double cpu_start = processCpuSeconds();
+  for (long k = 0; k < steps; ++k) {
+    const StepStats& s = stepper.step();
+    if (!stepper.q().allFinite() || !stepper.v().allFinite())
+      throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exact(s.t) +
+                               "): the state is no longer finite");
+    summary.steps = s.step;
+    summary.t_reached = s.t;
+    summary.penetration_cumulative += s.penetration_sum;
+    summary.penetration_time_integral += h * s.penetration_sum;
+    summary.penetration_peak = std::max(summary.penetration_peak, s.penetration_max);
+    total.push_back(s.iterations_stage1 + s.iterations_stage2);
+    stage1.push_back(s.iterations_stage1);
+    stage2.push_back(s.iterations_stage2);
+    summary.cap_hit_steps += s.cap_hit ? 1 : 0;
+    active_sum += s.active;
+    summary.max_active = std::max(summary.max_active, s.active);
+    summary.updates += s.updates;
+    summary.solve_seconds += s.t_solve;
+    if (stats.is_open()) appendStatsRow(stats, s);
+    if (vtk) {
+      const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
+      const bool interval = settings.output.vtk_interval > 0.0 && s.t >= next_snapshot - 1e-9 * h;
+      if (interval)
+        while (next_snapshot <= s.t + 1e-9 * h) next_snapshot += settings.output.vtk_interval;
+      if (every || interval) vtk->write(stepper);
+    }
+    const bool stopping = options.stop != nullptr && options.stop->load();
+    progress.update(s.step, k + 1 == steps || stopping);
+    if (stopping) {
+      summary.interrupted = true;
+      break;
+    }
+  }
+  summary.cpu_seconds = processCpuSeconds() - cpu_start;
+  summary.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  summary.energy_final = stepper.energy();
+  summary.mean_active = summary.steps > 0 ? active_sum / static_cast<double>(summary.steps) : 0.0;
+  if (options.keep_iterations) summary.iterations_per_step = total;
+  summary.iterations = distributionOf(std::move(total));
+  summary.iterations_stage1 = distributionOf(std::move(stage1));
+  summary.iterations_stage2 = distributionOf(std::move(stage2));
+
+  if (stats.is_open()) {
+    stats.close();
+    if (!stats) throw std::runtime_error(stats_path + ": cannot write (disk full?)");
+    std::error_code error;
+    fs::rename(stats_path + ".partial", stats_path, error);
+    if (error) throw std::runtime_error(stats_path + ": cannot rename into place");
+  }
+  if (files) writeSummaryJson(summary, options.out_dir + "/summary.json");
+  return summary;
+}
+
+void writeSummaryJson(const RunSummary& s, const std::string& path) {
+  auto distribution = [](const Distribution& d) {
+    return "{\"mean\": " + exact(d.mean) + ", \"p50\": " + exact(d.p50) +
+           ", \"p95\": " + exact(d.p95) + ", \"p99\": " + exact(d.p99) +
+           ", \"max\": " + exact(d.max) + "}";
+  };
+  std::ostringstream j;
+  j << "{\n"
+    << "  \"scheme\": \"" << s.scheme << "\",\n"
+    << "  \"dt\": " << exact(s.dt) << ",\n"
+    << "  \"t_end\": " << exact(s.t_end) << ",\n"
+    << "  \"t_reached\": " << exact(s.t_reached) << ",\n"
+    << "  \"steps\": " << s.steps << ",\n"
+    << "  \"interrupted\": " << (s.interrupted ? "true" : "false") << ",\n"
+    << "  \"cpu_seconds\": " << exact(s.cpu_seconds) << ",\n"
+    << "  \"wall_seconds\": " << exact(s.wall_seconds) << ",\n"
+    << "  \"penetration\": {\"cumulative\": " << exact(s.penetration_cumulative)
+    << ", \"time_integral\": " << exact(s.penetration_time_integral)
+    << ", \"peak\": " << exact(s.penetration_peak) << "},\n"
+    << "  \"iterations\": {\"mean\": " << exact(s.iterations.mean)
+    << ", \"p50\": " << exact(s.iterations.p50) << ", \"p95\": " << exact(s.iterations.p95)
+    << ", \"p99\": " << exact(s.iterations.p99) << ", \"max\": " << exact(s.iterations.max)
+    << ", \"cap_hit_steps\": " << s.cap_hit_steps
+    << ",\n                 \"stage1\": " << distribution(s.iterations_stage1)
+    << ",\n                 \"stage2\": " << distribution(s.iterations_stage2) << "},\n"
+    << "  \"contacts\": {\"mean_active\": " << exact(s.mean_active)
+    << ", \"max_active\": " << s.max_active << "},\n"
+    << "  \"solver\": {\"updates\": " << s.updates
+    << ", \"solve_seconds\": " << exact(s.solve_seconds) << ", \"ns_per_update\": "
+    << exact(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0) << "},\n"
+    << "  \"energy\": {\"initial\": " << exact(s.energy_initial)
+    << ", \"final\": " << exact(s.energy_final) << "}\n"
+    << "}\n";
+  writeFileAtomically(path, j.str());
+}
+
+}  // namespace sweep

@@ -1,0 +1,58 @@
+#pragma once
+// One simulation run of a scene with its outputs: stats.csv (a row per step), summary.json,
+// VTK snapshots with a .pvd collection. Every file is written under a temporary name and
+// renamed when complete, so a file either is whole or is not there.
+#include <atomic>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "apps/sweep/scene_file.hpp"
+
+namespace sweep {
+
+struct RunOptions {
+  std::string out_dir;                      // empty: no files
+  bool progress = false;                    // report progress on `log`
+  bool progress_bar = false;                // redraw one line (terminal) rather than print lines
+  std::ostream* log = nullptr;              // progress and messages; null: silent
+  const std::atomic<bool>* stop = nullptr;  // set by a signal: stop after the current step
+  bool keep_iterations = false;             // keep every step's iteration counts in the summary
+};
+
+struct Distribution {
+  double mean = 0.0, p50 = 0.0, p95 = 0.0, p99 = 0.0, max = 0.0;
+};
+Distribution distributionOf(std::vector<int> values);
+
+struct RunSummary {
+  std::string scheme;
+  double dt = 0.0, t_end = 0.0, t_reached = 0.0;
+  long steps = 0;
+  double cpu_seconds = 0.0, wall_seconds = 0.0;
+  double penetration_cumulative = 0.0;     // sum over steps of the end-of-step sum of max(0,-g)
+  double penetration_time_integral = 0.0;  // the same sum weighted by h
+  double penetration_peak = 0.0;
+  Distribution iterations;  // per step: stage 1 + stage 2
+  Distribution iterations_stage1, iterations_stage2;
+  long cap_hit_steps = 0;
+  double mean_active = 0.0;
+  int max_active = 0;
+  long updates = 0;            // local solves, all steps
+  double solve_seconds = 0.0;  // time in stage 5, all steps
+  double energy_initial = 0.0, energy_final = 0.0;
+  bool interrupted = false;
+  std::vector<int> iterations_per_step;  // when RunOptions::keep_iterations
+};
+
+// Runs `scene` from t = 0 to settings.t_end. Throws InputError for bad settings, and
+// std::runtime_error when an output cannot be written or the state stops being finite.
+RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options);
+
+// summary.json, written atomically
+void writeSummaryJson(const RunSummary& summary, const std::string& path);
+
+// Writes `text` to `path` through a temporary file and a rename.
+void writeFileAtomically(const std::string& path, const std::string& text);
+
+}  // namespace sweep

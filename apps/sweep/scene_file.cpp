@@ -1,0 +1,785 @@
+#include "apps/sweep/scene_file.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <set>
+#include <sstream>
+
+#include "apps/sweep/yaml_field.hpp"
+#include "contact/mesh_io.hpp"
+#include "framework/error.hpp"
+#include "models/funnel.hpp"
+
+namespace sweep {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Relative paths inside a scene file are relative to the file's folder.
+std::string resolve(const std::string& scene_path, const std::string& file) {
+  const fs::path p(file);
+  if (p.is_absolute()) return file;
+  return (fs::path(scene_path).parent_path() / p).lexically_normal().string();
+}
+
+Matrix3 rotationFromRpy(const Vector3& rpy) {
+  return (Eigen::AngleAxisd(rpy.z(), Vector3::UnitZ()) *
+          Eigen::AngleAxisd(rpy.y(), Vector3::UnitY()) *
+          Eigen::AngleAxisd(rpy.x(), Vector3::UnitX()))
+      .toRotationMatrix();
+}
+
+// A frame whose outward axis (y for a half-plane, z for a half-space) is `normal`.
+Matrix3 rotationWithNormal(const Vector3& normal, int dimension) {
+  const Vector3 n = normal.normalized();
+  Matrix3 r;
+  if (dimension == 2) {
+    r.col(0) = n.cross(Vector3::UnitZ());
+    r.col(1) = n;
+    r.col(2) = Vector3::UnitZ();
+  } else {
+    r = Eigen::Quaterniond::FromTwoVectors(Vector3::UnitZ(), n).toRotationMatrix();
+  }
+  return r;
+}
+
+class SceneParser {
+ public:
+  SceneParser(const std::string& path, SceneFile& out) : path_(path), out_(out) {}
+
+  void parse(const YamlField& root) {
+    root.requireMap();
+    root.allowOnly({"dimension", "gravity", "materials", "contact", "bodies", "generators", "urdf",
+                    "detection", "scheme", "time", "output"});
+    SceneSpec& spec = out_.spec;
+    spec.source = path_;
+    if (!root.has("dimension")) root["dimension"].fail("is required (2 or 3)");
+    const long dimension = root["dimension"].integer();
+    if (dimension != 2 && dimension != 3) root["dimension"].fail("must be 2 or 3");
+    spec.dimension = static_cast<int>(dimension);
+    spec.gravity = spec.dimension == 2 ? Vector3(0, -9.81, 0) : Vector3(0, 0, -9.81);
+    if (root.has("gravity")) spec.gravity = root["gravity"].vector(spec.dimension);
+    if (root.has("materials")) parseMaterials(root["materials"]);
+    if (root.has("generators")) parseGenerators(root["generators"]);
+    if (root.has("contact")) parseContact(root["contact"]);
+    if (root.has("bodies")) {
+      const YamlField bodies = root["bodies"];
+      bodies.requireSequence();
+      for (std::size_t i = 0; i < bodies.size(); ++i)
+        spec.bodies.push_back(parseBody(bodies.at(i)));
+    }
+    if (root.has("urdf")) parseUrdfs(root["urdf"]);
+    if (root.has("detection")) parseDetection(root["detection"]);
+    if (root.has("scheme")) parseScheme(root["scheme"]);
+    if (root.has("time")) parseTime(root["time"]);
+    if (root.has("output")) parseOutput(root["output"]);
+    checkNames(root);
+  }
+
+ private:
+  void parseMaterials(const YamlField& materials) {
+    for (const std::string& name : materials.keys()) {
+      const YamlField m = materials[name];
+      if (!m.isMap() && !m.isNull()) m.fail("must be a map such as {density: 7800}");
+      MaterialSpec spec{name, 0.0};
+      if (m.isMap()) {
+        m.allowOnly({"density"});
+        spec.density = m.positive("density", 0.0);
+      }
+      addMaterial(spec, m);
+    }
+  }
+
+  void addMaterial(const MaterialSpec& material, const YamlField& where) {
+    for (const MaterialSpec& m : out_.spec.materials)
+      if (m.name == material.name) where.fail("material '" + material.name + "' is defined twice");
+    out_.spec.materials.push_back(material);
+  }
+
+  ContactLaw parseLaw(const YamlField& f, const ContactLaw& fallback) {
+    ContactLaw law = fallback;
+    law.friction = f.nonNegative("friction", law.friction);
+    if (f.has("restitution")) {
+      law.restitution = f["restitution"].number();
+      if (!(law.restitution >= 0.0 && law.restitution <= 1.0))
+        f["restitution"].fail("must be in [0, 1]");
+    }
+    return law;
+  }
+
+  void parseContact(const YamlField& contact) {
+    contact.allowOnly({"friction", "restitution", "pairs"});
+    out_.spec.default_law = parseLaw(contact, out_.spec.default_law);
+    if (!contact.has("pairs")) return;
+    const YamlField pairs = contact["pairs"];
+    pairs.requireSequence();
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const YamlField p = pairs.at(i);
+      p.allowOnly({"materials", "friction", "restitution"});
+      const YamlField names = p["materials"];
+      if (!names.isSequence() || names.size() != 2) names.fail("must name two materials");
+      ContactLawSpec law{names.at(0).text(), names.at(1).text(),
+                         parseLaw(p, out_.spec.default_law)};
+      for (std::size_t k = 0; k < 2; ++k) requireMaterial(names.at(k), names.at(k).text());
+      out_.spec.laws.push_back(law);
+    }
+  }
+
+  void requireMaterial(const YamlField& where, const std::string& name) {
+    for (const MaterialSpec& m : out_.spec.materials)
+      if (m.name == name) return;
+    where.fail("no such material (define it under materials)");
+  }
+
+  Shape parseShape(const YamlField& body, const std::string& type) {
+    auto point2 = [&](const char* key) {
+      const Vector3 v = body[key].vector(2);
+      return Vector2(v.x(), v.y());
+    };
+    if (type == "disk") return Shape::disk(body["radius"].positive());
+    if (type == "segment") {
+      return Shape::segment(point2("start"), point2("end"), body.nonNegative("radius", 0.0));
+    }
+    if (type == "polygon") {
+      const YamlField vertices = body["vertices"];
+      vertices.requireSequence();
+      std::vector<Vector2> points;
+      for (std::size_t k = 0; k < vertices.size(); ++k) {
+        const Vector3 v = vertices.at(k).vector(2);
+        points.emplace_back(v.x(), v.y());
+      }
+      return Shape::polygon(points);
+    }
+    if (type == "half_plane") return Shape::halfPlane();
+    if (type == "sphere") return Shape::sphere(body["radius"].positive());
+    if (type == "box") {
+      const Vector3 size = body["size"].vector(3);
+      for (int k = 0; k < 3; ++k)
+        if (!(size[k] > 0.0)) body["size"].at(k).fail("must be > 0");
+      return Shape::box(size);
+    }
+    if (type == "cylinder")
+      return Shape::cylinder(body["radius"].positive(), body["length"].positive());
+    if (type == "capsule")
+      return Shape::capsule(body["radius"].positive(), body["length"].positive());
+    if (type == "plane") return Shape::halfSpace();
+    if (type == "mesh") {
+      Vector3 scale = Vector3::Ones();
+      if (body.has("scale"))
+        scale = body["scale"].isSequence() ? body["scale"].vector(3)
+                                           : Vector3::Constant(body["scale"].positive());
+      const std::string file = resolve(path_, body["file"].text());
+      if (!fs::exists(file)) body["file"].fail("no such file (" + file + ")");
+      auto mesh = loadTriangleMesh(file, scale);
+      return body.boolean("convex", false) ? Shape::convexMesh(mesh) : Shape::triangleMesh(mesh);
+    }
+    body["shape"].fail(
+        "must be one of disk, segment, polygon, half_plane (2D) or sphere, box, cylinder, "
+        "capsule, mesh, plane (3D)");
+  }
+
+  BodySpec parseBody(const YamlField& f) {
+    f.allowOnly({"name",
+                 "shape",
+                 "radius",
+                 "start",
+                 "end",
+                 "vertices",
+                 "size",
+                 "length",
+                 "file",
+                 "scale",
+                 "convex",
+                 "normal",
+                 "position",
+                 "angle",
+                 "rpy",
+                 "velocity",
+                 "angular_velocity",
+                 "material",
+                 "mass",
+                 "inertia",
+                 "fixed",
+                 "motion"});
+    const int dim = out_.spec.dimension;
+    BodySpec b;
+    b.name = f.text("name", "body" + std::to_string(out_.spec.bodies.size()));
+    if (!f.has("shape")) f["shape"].fail("is required");
+    const std::string type = f["shape"].text();
+    const bool planar_type =
+        type == "disk" || type == "segment" || type == "polygon" || type == "half_plane";
+    const bool known = planar_type || type == "sphere" || type == "box" || type == "cylinder" ||
+                       type == "capsule" || type == "mesh" || type == "plane";
+    if (known && planar_type != (dim == 2))
+      f["shape"].fail(std::string("is not a shape of a ") + (dim == 2 ? "2D" : "3D") + " scene");
+    b.shape = parseShape(f, type);
+    if (f.has("material")) {
+      b.material = f["material"].text();
+      requireMaterial(f["material"], b.material);
+    }
+    if (f.has("position")) b.pose.translation = f["position"].vector(dim);
+    if (dim == 2 && f.has("angle"))
+      b.pose.rotation = Eigen::AngleAxisd(f["angle"].number(), Vector3::UnitZ()).toRotationMatrix();
+    if (dim == 2 && f.has("rpy")) f["rpy"].fail("is for 3D scenes; use angle");
+    if (dim == 3 && f.has("rpy")) b.pose.rotation = rotationFromRpy(f["rpy"].vector(3));
+    if (dim == 3 && f.has("angle")) f["angle"].fail("is for 2D scenes; use rpy");
+    if (isUnbounded(b.shape)) {
+      if (!f.has("normal")) f["normal"].fail("is required for a " + type);
+      const Vector3 n = f["normal"].vector(dim);
+      if (!(n.norm() > 0.0)) f["normal"].fail("must not be zero");
+      b.pose.rotation = rotationWithNormal(n, dim);
+    } else if (f.has("normal")) {
+      f["normal"].fail("only half-planes and planes take a normal");
+    }
+
+    const bool fixed = f.boolean("fixed", false);
+    if (fixed && f.has("motion")) f["motion"].fail("a fixed body cannot also move");
+    b.kind = fixed ? BodySpec::Kind::Fixed
+                   : (f.has("motion") ? BodySpec::Kind::Driven : BodySpec::Kind::Dynamic);
+    if (isUnbounded(b.shape) && b.kind == BodySpec::Kind::Dynamic)
+      f["shape"].fail("a " + type + " cannot be dynamic; add fixed: true");
+    if (b.kind != BodySpec::Kind::Dynamic)
+      for (const char* key : {"velocity", "angular_velocity", "mass", "inertia"})
+        if (f.has(key)) f[key].fail("only dynamic bodies take it");
+
+    if (f.has("velocity")) b.velocity = f["velocity"].vector(dim);
+    if (f.has("angular_velocity")) {
+      if (dim == 2)
+        b.angular_velocity = Vector3(0, 0, f["angular_velocity"].number());
+      else
+        b.angular_velocity = f["angular_velocity"].vector(3);
+    }
+    if (f.has("mass")) b.mass = f["mass"].positive();
+    if (f.has("inertia")) {
+      const YamlField in = f["inertia"];
+      Vector3 moments;
+      if (dim == 2) {
+        const double izz = in.positive();
+        moments = Vector3(0.5 * izz, 0.5 * izz, izz);
+      } else {
+        moments = in.vector(3);
+        for (int k = 0; k < 3; ++k)
+          if (!(moments[k] > 0.0)) in.at(k).fail("must be > 0");
+      }
+      if (!b.mass) in.fail("needs a mass beside it");
+      b.principal_inertia = moments;
+    }
+    if (b.kind == BodySpec::Kind::Dynamic && !b.mass && b.material.empty())
+      f.fail("a dynamic body needs a material with a density, or a mass");
+    if (b.kind == BodySpec::Kind::Dynamic && !b.mass) {
+      for (const MaterialSpec& m : out_.spec.materials)
+        if (m.name == b.material && !(m.density > 0.0))
+          f["material"].fail("material '" + m.name + "' has no density; give the body a mass");
+    }
+    if (b.kind == BodySpec::Kind::Driven) b.motion = parseMotion(f["motion"]);
+    return b;
+  }
+
+  MotionSpec parseMotion(const YamlField& f) {
+    f.allowOnly({"type", "velocity", "angular_velocity", "times", "positions", "remove_at"});
+    const int dim = out_.spec.dimension;
+    MotionSpec m;
+    const std::string type = f.text("type", "fixed");
+    if (type == "fixed") {
+      m.kind = MotionSpec::Kind::Fixed;
+    } else if (type == "velocity") {
+      m.kind = MotionSpec::Kind::Velocity;
+      if (f.has("velocity")) m.linear_velocity = f["velocity"].vector(dim);
+      if (f.has("angular_velocity"))
+        m.angular_velocity = dim == 2 ? Vector3(0, 0, f["angular_velocity"].number())
+                                      : f["angular_velocity"].vector(3);
+    } else if (type == "keyframes") {
+      m.kind = MotionSpec::Kind::Keyframes;
+      m.times = f["times"].numbers();
+      const YamlField positions = f["positions"];
+      positions.requireSequence();
+      if (positions.size() != m.times.size() || m.times.empty())
+        positions.fail("must hold one position per time");
+      for (std::size_t k = 0; k < positions.size(); ++k) {
+        m.positions.push_back(positions.at(k).vector(dim));
+        if (k > 0 && !(m.times[k] > m.times[k - 1])) f["times"].at(k).fail("times must increase");
+      }
+    } else {
+      f["type"].fail("must be fixed, velocity or keyframes");
+    }
+    if (type != "velocity")
+      for (const char* key : {"velocity", "angular_velocity"})
+        if (f.has(key)) f[key].fail("only a velocity motion takes it");
+    if (type != "keyframes")
+      for (const char* key : {"times", "positions"})
+        if (f.has(key)) f[key].fail("only a keyframes motion takes it");
+    if (f.has("remove_at")) m.removal_time = f["remove_at"].number();
+    return m;
+  }
+
+  RadiusDistribution parseRadius(const YamlField& f) {
+    if (f.isScalar()) return RadiusDistribution::constant(f.positive());
+    f.requireMap();
+    if (f.has("mean")) {
+      f.allowOnly({"mean", "std"});
+      const double std = f.nonNegative("std", 0.0);
+      const double mean = f["mean"].positive();
+      if (!(mean - 3.0 * std > 0.0)) f["std"].fail("must be below mean / 3 (radii stay > 0)");
+      return RadiusDistribution::normal(mean, std);
+    }
+    f.allowOnly({"min", "max"});
+    const double low = f["min"].positive(), high = f["max"].positive();
+    if (!(high >= low)) f["max"].fail("must be >= min");
+    return RadiusDistribution::uniform(low, high);
+  }
+
+  void parseGenerators(const YamlField& generators) {
+    generators.requireSequence();
+    for (std::size_t i = 0; i < generators.size(); ++i) {
+      const YamlField g = generators.at(i);
+      g.requireMap();
+      const std::string type = g["type"].text();
+      if (type == "hall_funnel")
+        hallFunnelGenerator(g);
+      else if (type == "disks" || type == "spheres")
+        latticeGenerator(g, type == "disks");
+      else
+        g["type"].fail("must be disks, spheres or hall_funnel");
+    }
+  }
+
+  void latticeGenerator(const YamlField& g, bool disks) {
+    g.allowOnly(
+        {"type", "count", "name", "radius", "region", "spacing", "seed", "material", "velocity"});
+    const int dim = out_.spec.dimension;
+    if (disks != (dim == 2))
+      g["type"].fail(std::string("does not fit a ") + std::to_string(dim) + "D scene");
+    const long count = g["count"].integer();
+    if (count < 1 || count > 10000000) g["count"].fail("must be in [1, 10^7]");
+    const RadiusDistribution distribution = parseRadius(g["radius"]);
+    const long seed = g.integer("seed", 1);
+    if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
+    const std::vector<double> radii =
+        sampleRadii(distribution, static_cast<int>(count), static_cast<std::uint32_t>(seed));
+    const double spacing = g.number("spacing", 1.1);
+    if (!(spacing >= 1.0)) g["spacing"].fail("must be >= 1 (grains may not overlap)");
+    const YamlField region = g["region"];
+    region.allowOnly({"min", "max"});
+    const Vector3 low = region["min"].vector(dim), high = region["max"].vector(dim);
+    const double pitch = 2.0 * *std::max_element(radii.begin(), radii.end()) * spacing;
+    long across[3] = {1, 1, 1};
+    for (int k = 0; k < dim; ++k) {
+      across[k] = static_cast<long>(std::floor((high[k] - low[k]) / pitch));
+      if (across[k] < 1)
+        region.fail("is narrower than one lattice pitch (" + std::to_string(pitch) + ")");
+    }
+    const long capacity = across[0] * across[1] * across[2];
+    if (capacity < count)
+      g["count"].fail("the region holds only " + std::to_string(capacity) +
+                      " grains at this spacing");
+    const std::string material = g.text("material", "");
+    if (!material.empty()) requireMaterial(g["material"], material);
+    const Vector3 velocity = g.has("velocity") ? g["velocity"].vector(dim) : Vector3::Zero();
+    const std::string prefix = g.text("name", disks ? "disk" : "sphere");
+    // fill x first, then z (3D), then y upwards: the lattice grows from the floor
+    for (long i = 0; i < count; ++i) {
+      BodySpec b;
+      b.name = prefix + std::to_string(i);
+      b.shape = disks ? Shape::disk(radii[i]) : Shape::sphere(radii[i]);
+      b.material = material;
+      const long ix = i % across[0];
+      const long iz = dim == 3 ? (i / across[0]) % across[2] : 0;
+      const long iy = dim == 3 ? i / (across[0] * across[2]) : i / across[0];
+      b.pose.translation = low + pitch * Vector3(0.5 + ix, 0.5 + iy, dim == 3 ? 0.5 + iz : 0.0);
+      if (dim == 2) b.pose.translation.z() = 0.0;
+      b.velocity = velocity;
+      out_.spec.bodies.push_back(b);
+    }
+  }
+
+  void hallFunnelGenerator(const YamlField& g) {
+    g.allowOnly({"type", "count", "radius_mean", "radius_std", "density", "friction", "restitution",
+                 "included_angle", "orifice", "shutter_time", "lattice_spacing", "seed"});
+    if (out_.spec.dimension != 2) g["type"].fail("is a 2D generator");
+    FunnelParameters p;
+    p.count = static_cast<int>(g.integer("count", p.count));
+    p.radius_mean = g.number("radius_mean", p.radius_mean);
+    p.radius_std = g.number("radius_std", p.radius_std);
+    p.density = g.number("density", p.density);
+    p.friction = g.number("friction", p.friction);
+    p.restitution = g.number("restitution", p.restitution);
+    p.included_angle = g.number("included_angle", p.included_angle);
+    p.orifice = g.number("orifice", p.orifice);
+    p.shutter_time = g.number("shutter_time", p.shutter_time);
+    p.lattice_spacing = g.number("lattice_spacing", p.lattice_spacing);
+    p.seed = static_cast<std::uint32_t>(g.integer("seed", p.seed));
+    if (g.integer("count", 1) > 10000000) g["count"].fail("must be <= 10^7");
+    SceneSpec funnel;
+    try {
+      funnel = hallFunnel(p);
+    } catch (const InputError& e) {
+      // the builder names the parameter; add where it came from
+      throw InputError(path_ + ": " + g.path() + ": " + e.what());
+    }
+    for (const MaterialSpec& m : funnel.materials) addMaterial(m, g);
+    out_.spec.laws.insert(out_.spec.laws.end(), funnel.laws.begin(), funnel.laws.end());
+    out_.spec.bodies.insert(out_.spec.bodies.end(), funnel.bodies.begin(), funnel.bodies.end());
+  }
+
+  void parseUrdfs(const YamlField& list) {
+    list.requireSequence();
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const YamlField f = list.at(i);
+      f.allowOnly(
+          {"file", "prefix", "floating", "position", "rpy", "joints", "velocities", "material"});
+      UrdfSpec u;
+      u.file = resolve(path_, f["file"].text());
+      if (!fs::exists(u.file)) f["file"].fail("no such file (" + u.file + ")");
+      u.prefix = f.text("prefix", "");
+      u.floating_base = f.boolean("floating", false);
+      if (f.has("position")) u.base.translation = f["position"].vector(3);
+      if (f.has("rpy")) u.base.rotation = rotationFromRpy(f["rpy"].vector(3));
+      auto joints = [&](const char* key, std::vector<std::pair<std::string, double>>& out) {
+        if (!f.has(key)) return;
+        for (const std::string& name : f[key].keys()) out.emplace_back(name, f[key][name].number());
+      };
+      joints("joints", u.joint_positions);
+      joints("velocities", u.joint_velocities);
+      if (f.has("material")) {
+        u.material = f["material"].text();
+        requireMaterial(f["material"], u.material);
+      }
+      out_.spec.urdfs.push_back(u);
+    }
+  }
+
+  void parseDetection(const YamlField& f) {
+    f.allowOnly({"path", "speed_factor", "margin", "self_collision"});
+    DetectionSettings& d = out_.spec.detection;
+    const std::string path = f.text("path", "automatic");
+    if (path == "automatic")
+      d.path = DetectionPathChoice::Automatic;
+    else if (path == "analytic")
+      d.path = DetectionPathChoice::Analytic;
+    else if (path == "fcl")
+      d.path = DetectionPathChoice::Fcl;
+    else
+      f["path"].fail("must be automatic, analytic or fcl");
+    d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
+    d.floor = f.nonNegative("margin", d.floor);
+    d.self_collision = f.boolean("self_collision", d.self_collision);
+  }
+
+  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
+    f.allowOnly({"max_iterations", "tolerance", "relaxation", "shuffle", "seed", "local_solver"});
+    const long cap = f.integer("max_iterations", s.max_iterations);
+    if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
+    s.max_iterations = static_cast<int>(cap);
+    s.tolerance = f.positive("tolerance", s.tolerance);
+    s.relaxation = f.positive("relaxation", s.relaxation);
+    if (!(s.relaxation < 2.0)) f["relaxation"].fail("must be in (0, 2)");
+    s.shuffle = f.boolean("shuffle", s.shuffle);
+    const long seed = f.integer("seed", s.seed);
+    if (seed < 0 || seed > 4294967295L) f["seed"].fail("must be in [0, 2^32)");
+    s.seed = static_cast<std::uint32_t>(seed);
+    const std::string local = f.text("local_solver", "alart-curnier");
+    if (local == "alart-curnier")
+      s.local_solver_3d = LocalSolver3d::AlartCurnier;
+    else if (local == "enumeration")
+      s.local_solver_3d = LocalSolver3d::Enumeration;
+    else
+      f["local_solver"].fail("must be alart-curnier or enumeration");
+    return s;
+  }
+
+  void parseScheme(const YamlField& f) {
+    f.allowOnly({"name", "normal_law", "tangents", "threshold", "coulomb", "normal_stage",
+                 "friction_stage"});
+    SchemeSettings& s = out_.run.scheme;
+    if (f.has("name")) {
+      const std::string name = f["name"].text();
+      if (name != "moreau-jean" && name != "catching-up")
+        f["name"].fail("must be moreau-jean or catching-up");
+      s.scheme = schemeFromName(name);
+    }
+    const std::string law = f.text("normal_law", "vel");
+    if (law == "vel")
+      s.normal_law = NormalLaw::Vel;
+    else if (law == "iqs")
+      s.normal_law = NormalLaw::Iqs;
+    else if (law == "pos")
+      s.normal_law = NormalLaw::Pos;
+    else
+      f["normal_law"].fail("must be vel, iqs or pos");
+    const std::string tangents = f.text("tangents", "global");
+    if (tangents == "global")
+      s.friction.tangents = TangentMode::Global;
+    else if (tangents == "local")
+      s.friction.tangents = TangentMode::Local;
+    else if (tangents == "none")
+      s.friction.tangents = TangentMode::None;
+    else
+      f["tangents"].fail("must be global, local or none");
+    const std::string threshold = f.text("threshold", "physical");
+    if (threshold == "physical")
+      s.friction.threshold = FrictionThreshold::Physical;
+    else if (threshold == "metric")
+      s.friction.threshold = FrictionThreshold::Metric;
+    else
+      f["threshold"].fail("must be physical or metric");
+    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
+    if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
+    if (f.has("friction_stage"))
+      s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage);
+  }
+
+  void parseTime(const YamlField& f) {
+    f.allowOnly({"step", "end"});
+    out_.run.scheme.h = f.positive("step", out_.run.scheme.h);
+    out_.run.t_end = f.positive("end", out_.run.t_end);
+  }
+
+  void parseOutput(const YamlField& f) {
+    f.allowOnly({"stats", "vtk_every", "vtk_interval"});
+    OutputSettings& o = out_.run.output;
+    o.stats = f.boolean("stats", o.stats);
+    o.vtk_every = f.integer("vtk_every", o.vtk_every);
+    if (o.vtk_every < 0) f["vtk_every"].fail("must be >= 0");
+    o.vtk_interval = f.nonNegative("vtk_interval", o.vtk_interval);
+  }
+
+  void checkNames(const YamlField& root) {
+    std::set<std::string> seen;
+    for (const BodySpec& b : out_.spec.bodies)
+      if (!seen.insert(b.name).second) root["bodies"].fail("two bodies are named '" + b.name + "'");
+  }
+
+  const std::string& path_;
+  SceneFile& out_;
+};
+
+}  // namespace
+
+SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides) {
+  YAML::Node root = loadYamlFile(path);
+  for (const std::string& o : overrides) applyOverride(root, o, path);
+  SceneFile scene;
+  scene.path = path;
+  SceneParser(path, scene).parse(YamlField(root, path));
+  return scene;
+}
+
+}  // namespace sweep
+
+namespace sweep {
+
+namespace {
+
+void emitVector(YAML::Emitter& out, const Vector3& v, int dimension) {
+  out << YAML::Flow << YAML::BeginSeq;
+  for (int k = 0; k < dimension; ++k) out << v[k];
+  out << YAML::EndSeq;
+}
+
+const char* shapeKeyword(ShapeType type) {
+  switch (type) {
+    case ShapeType::Disk:
+      return "disk";
+    case ShapeType::Segment:
+      return "segment";
+    case ShapeType::Polygon:
+      return "polygon";
+    case ShapeType::HalfPlane:
+      return "half_plane";
+    case ShapeType::Sphere:
+      return "sphere";
+    case ShapeType::Box:
+      return "box";
+    case ShapeType::Cylinder:
+      return "cylinder";
+    case ShapeType::Capsule:
+      return "capsule";
+    case ShapeType::HalfSpace:
+      return "plane";
+    default:
+      return nullptr;
+  }
+}
+
+void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
+  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
+  out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
+  out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
+  out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
+  out << YAML::Key << "seed" << YAML::Value << s.seed;
+  out << YAML::EndMap;
+}
+
+}  // namespace
+
+void writeSceneFile(const SceneFile& scene, const std::string& path) {
+  const SceneSpec& spec = scene.spec;
+  const int dim = spec.dimension;
+  if (!spec.urdfs.empty())
+    throw InputError(path + ": scenes with URDF models are not exported yet");
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "dimension" << YAML::Value << dim;
+  out << YAML::Key << "gravity" << YAML::Value;
+  emitVector(out, spec.gravity, dim);
+  out << YAML::Key << "materials" << YAML::Value << YAML::BeginMap;
+  for (const MaterialSpec& m : spec.materials) {
+    out << YAML::Key << m.name << YAML::Value << YAML::Flow << YAML::BeginMap;
+    if (m.density > 0.0) out << YAML::Key << "density" << YAML::Value << m.density;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  out << YAML::Key << "contact" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "friction" << YAML::Value << spec.default_law.friction;
+  out << YAML::Key << "restitution" << YAML::Value << spec.default_law.restitution;
+  out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
+  for (const ContactLawSpec& l : spec.laws) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "materials" << YAML::Value << YAML::Flow
+        << YAML::BeginSeq << l.material_a << l.material_b << YAML::EndSeq;
+    out << YAML::Key << "friction" << YAML::Value << l.law.friction;
+    out << YAML::Key << "restitution" << YAML::Value << l.law.restitution << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+
+  out << YAML::Key << "bodies" << YAML::Value << YAML::BeginSeq;
+  for (const BodySpec& b : spec.bodies) {
+    const char* keyword = shapeKeyword(b.shape.type);
+    if (keyword == nullptr)
+      throw InputError(path + ": body '" + b.name + "': mesh bodies are not exported yet");
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << b.name;
+    out << YAML::Key << "shape" << YAML::Value << keyword;
+    const Shape& s = b.shape;
+    switch (s.type) {
+      case ShapeType::Segment:
+        out << YAML::Key << "start" << YAML::Value;
+        emitVector(out, s.segment_start, 2);
+        out << YAML::Key << "end" << YAML::Value;
+        emitVector(out, s.segment_end, 2);
+        if (s.radius > 0.0) out << YAML::Key << "radius" << YAML::Value << s.radius;
+        break;
+      case ShapeType::Polygon:
+        out << YAML::Key << "vertices" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (const Vector3& v : s.vertices) emitVector(out, v, 2);
+        out << YAML::EndSeq;
+        break;
+      case ShapeType::Box:
+        out << YAML::Key << "size" << YAML::Value;
+        emitVector(out, 2.0 * s.half_extents, 3);
+        break;
+      case ShapeType::Cylinder:
+      case ShapeType::Capsule:
+        out << YAML::Key << "radius" << YAML::Value << s.radius;
+        out << YAML::Key << "length" << YAML::Value << s.length;
+        break;
+      case ShapeType::Disk:
+      case ShapeType::Sphere:
+        out << YAML::Key << "radius" << YAML::Value << s.radius;
+        break;
+      default:
+        break;
+    }
+    if (!b.material.empty()) out << YAML::Key << "material" << YAML::Value << b.material;
+    out << YAML::Key << "position" << YAML::Value;
+    emitVector(out, b.pose.translation, dim);
+    const Matrix3& r = b.pose.rotation;
+    if (isUnbounded(s)) {
+      out << YAML::Key << "normal" << YAML::Value;
+      emitVector(out, dim == 2 ? Vector3(r.col(1)) : Vector3(r.col(2)), dim);
+    } else if (dim == 2) {
+      const double angle = std::atan2(r(1, 0), r(0, 0));
+      if (angle != 0.0) out << YAML::Key << "angle" << YAML::Value << angle;
+    } else {
+      const Vector3 ypr = r.eulerAngles(2, 1, 0);
+      if (!r.isIdentity(0.0)) {
+        out << YAML::Key << "rpy" << YAML::Value;
+        emitVector(out, Vector3(ypr.z(), ypr.y(), ypr.x()), 3);
+      }
+    }
+    if (b.kind == BodySpec::Kind::Fixed) out << YAML::Key << "fixed" << YAML::Value << true;
+    if (b.kind == BodySpec::Kind::Dynamic) {
+      if (!b.velocity.isZero(0.0)) {
+        out << YAML::Key << "velocity" << YAML::Value;
+        emitVector(out, b.velocity, dim);
+      }
+      if (b.mass) out << YAML::Key << "mass" << YAML::Value << *b.mass;
+      if (b.principal_inertia) {
+        out << YAML::Key << "inertia" << YAML::Value;
+        if (dim == 2)
+          out << b.principal_inertia->z();
+        else
+          emitVector(out, *b.principal_inertia, 3);
+      }
+      if (!b.angular_velocity.isZero(0.0)) {
+        out << YAML::Key << "angular_velocity" << YAML::Value;
+        if (dim == 2)
+          out << b.angular_velocity.z();
+        else
+          emitVector(out, b.angular_velocity, 3);
+      }
+    }
+    if (b.kind == BodySpec::Kind::Driven) {
+      const MotionSpec& m = b.motion;
+      out << YAML::Key << "motion" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      const char* kind = m.kind == MotionSpec::Kind::Fixed      ? "fixed"
+                         : m.kind == MotionSpec::Kind::Velocity ? "velocity"
+                                                                : "keyframes";
+      out << YAML::Key << "type" << YAML::Value << kind;
+      if (m.kind == MotionSpec::Kind::Velocity) {
+        out << YAML::Key << "velocity" << YAML::Value;
+        emitVector(out, m.linear_velocity, dim);
+        out << YAML::Key << "angular_velocity" << YAML::Value;
+        if (dim == 2)
+          out << m.angular_velocity.z();
+        else
+          emitVector(out, m.angular_velocity, 3);
+      }
+      if (m.kind == MotionSpec::Kind::Keyframes) {
+        out << YAML::Key << "times" << YAML::Value << YAML::Flow << m.times;
+        out << YAML::Key << "positions" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (const Vector3& p : m.positions) emitVector(out, p, dim);
+        out << YAML::EndSeq;
+      }
+      if (std::isfinite(m.removal_time))
+        out << YAML::Key << "remove_at" << YAML::Value << m.removal_time;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  const SchemeSettings& s = scene.run.scheme;
+  out << YAML::Key << "scheme" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << schemeName(s.scheme);
+  const char* law = s.normal_law == NormalLaw::Vel   ? "vel"
+                    : s.normal_law == NormalLaw::Iqs ? "iqs"
+                                                     : "pos";
+  out << YAML::Key << "normal_law" << YAML::Value << law;
+  out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
+  out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
+  emitSolver(out, "coulomb", s.coulomb);
+  emitSolver(out, "normal_stage", s.normal_stage);
+  emitSolver(out, "friction_stage", s.friction_stage);
+  out << YAML::EndMap;
+  out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
+      << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;
+  out << YAML::EndMap;
+  if (!out.good()) throw std::runtime_error("scene export: " + out.GetLastError());
+
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream file(partial);
+    file << "# explicit scene exported by `sweep export` from " << scene.path << "\n"
+         << out.c_str() << "\n";
+    if (!file.good()) throw std::runtime_error(path + ": cannot write the file");
+  }
+  fs::rename(partial, path);
+}
+
+}  // namespace sweep

@@ -1,0 +1,39 @@
+#pragma once
+// Scene files: YAML describing a scene (bodies, generators, URDF models, materials), the
+// scheme and its settings, the time span and the outputs. The format is documented in
+// docs/scene_format.md; every rejection names the file, the field path and the value.
+#include <string>
+#include <vector>
+
+#include "integrators/time_stepper.hpp"
+#include "models/scene_spec.hpp"
+
+namespace sweep {
+
+struct OutputSettings {
+  bool stats = true;          // stats.csv, one row per step
+  long vtk_every = 0;         // VTK snapshot every N steps (0: off)
+  double vtk_interval = 0.0;  // or every so much simulated time (0: off)
+};
+
+struct RunSettings {
+  SchemeSettings scheme;
+  double t_end = 0.1;
+  OutputSettings output;
+};
+
+struct SceneFile {
+  std::string path;
+  SceneSpec spec;
+  RunSettings run;
+};
+
+// Reads and validates a scene file after applying `overrides` (path=value, as --set gives
+// them). InputError for anything wrong, naming file, field and value.
+SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides = {});
+
+// Writes the scene as an explicit file (every body listed, no generators) that loads back to
+// the same scene: generators are a convenience, not the only way to say a scene.
+void writeSceneFile(const SceneFile& scene, const std::string& path);
+
+}  // namespace sweep

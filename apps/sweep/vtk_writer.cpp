@@ -1,0 +1,156 @@
+#include "apps/sweep/vtk_writer.hpp"
+
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include "apps/sweep/run.hpp"
+#include "framework/kinematics.hpp"
+
+namespace sweep {
+
+namespace {
+
+struct Cell {
+  enum class Kind { Vertex, Line, Polygon } kind;
+  std::vector<int> points;
+};
+
+}  // namespace
+
+VtkSeries::VtkSeries(const Scene& scene, const std::string& out_dir)
+    : scene_(scene), dir_(out_dir), data_(scene.model), cdata_(scene.model, scene.cmodel) {
+  std::filesystem::create_directories(dir_ + "/vtk");
+}
+
+void VtkSeries::write(const TimeStepper& stepper) {
+  const Model& model = scene_.model;
+  const ContactModel& cmodel = scene_.cmodel;
+  const double t = stepper.time();
+  forwardKinematics(model, data_, stepper.q(), stepper.v());
+  updateGeometryPoses(model, data_, cmodel, t, cdata_);
+
+  // net contact force of the last step on every dynamic body, world frame
+  std::vector<Vector3> force(model.bodies.size(), Vector3::Zero());
+  const auto& contacts = stepper.contactData().contacts;
+  const auto& impulses = stepper.impulses();
+  const double h = stepper.settings().h;
+  for (std::size_t c = 0; c < contacts.size() && c < impulses.size(); ++c) {
+    const Contact& k = contacts[c];
+    const Vector3 f =
+        (impulses[c].x() * k.normal + impulses[c].y() * k.tangent1 + impulses[c].z() * k.tangent2) /
+        h;
+    if (k.body_b.kind == BodyRef::Kind::Dynamic) force[k.body_b.index] += f;
+    if (k.body_a.kind == BodyRef::Kind::Dynamic) force[k.body_a.index] -= f;
+  }
+
+  std::vector<Vector3> points;
+  std::vector<int> body_id, kind;
+  std::vector<double> radius;
+  std::vector<Vector3> velocity, contact_force;
+  std::vector<Cell> cells;
+  for (int g = 0; g < cmodel.size(); ++g) {
+    const Geometry& geometry = cmodel.geometries[g];
+    const Shape& shape = geometry.shape;
+    if (isUnbounded(shape)) continue;
+    if (geometry.body.kind == BodyRef::Kind::Driven &&
+        !model.driven_bodies[geometry.body.index].presentAt(t))
+      continue;
+    const Pose& pose = cdata_.geometry_pose[g];
+    const bool dynamic = geometry.body.kind == BodyRef::Kind::Dynamic;
+    const int body = dynamic ? geometry.body.index : -1;
+    Vector3 v = Vector3::Zero(), f = Vector3::Zero();
+    if (dynamic) {
+      const Pose& bp = data_.world_pose[body];
+      v = bp.rotation * Vector3(data_.velocity[body].tail<3>());
+      f = force[body];
+    }
+    auto add = [&](const Vector3& x, double r) {
+      points.push_back(x);
+      body_id.push_back(body);
+      kind.push_back(static_cast<int>(geometry.body.kind));
+      radius.push_back(r);
+      velocity.push_back(v);
+      contact_force.push_back(f);
+      return static_cast<int>(points.size()) - 1;
+    };
+    Cell cell;
+    if (shape.type == ShapeType::Segment) {
+      cell.kind = Cell::Kind::Line;
+      cell.points = {add(pose.apply(shape.segment_start), shape.radius),
+                     add(pose.apply(shape.segment_end), shape.radius)};
+    } else if (shape.type == ShapeType::Polygon) {
+      cell.kind = Cell::Kind::Polygon;
+      for (const Vector3& p : shape.vertices) cell.points.push_back(add(pose.apply(p), 0.0));
+    } else {
+      cell.kind = Cell::Kind::Vertex;
+      cell.points = {add(pose.translation, boundingRadius(shape))};
+    }
+    cells.push_back(cell);
+  }
+
+  std::ostringstream x;
+  x << std::setprecision(9);
+  int verts = 0, lines = 0, polys = 0;
+  for (const Cell& c : cells)
+    (c.kind == Cell::Kind::Vertex ? verts : c.kind == Cell::Kind::Line ? lines : polys) += 1;
+  x << "<?xml version=\"1.0\"?>\n"
+    << "<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+    << "<PolyData>\n"
+    << "<Piece NumberOfPoints=\"" << points.size() << "\" NumberOfVerts=\"" << verts
+    << "\" NumberOfLines=\"" << lines << "\" NumberOfStrips=\"0\" NumberOfPolys=\"" << polys
+    << "\">\n";
+  x << "<PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
+  auto ints = [&](const char* name, const std::vector<int>& values) {
+    x << "<DataArray type=\"Int32\" Name=\"" << name << "\" format=\"ascii\">\n";
+    for (int value : values) x << value << ' ';
+    x << "\n</DataArray>\n";
+  };
+  auto vectors = [&](const char* name, const std::vector<Vector3>& values) {
+    x << "<DataArray type=\"Float64\" Name=\"" << name
+      << "\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+    for (const Vector3& value : values)
+      x << value.x() << ' ' << value.y() << ' ' << value.z() << '\n';
+    x << "</DataArray>\n";
+  };
+  ints("body_id", body_id);
+  ints("kind", kind);
+  x << "<DataArray type=\"Float64\" Name=\"radius\" format=\"ascii\">\n";
+  for (double r : radius) x << r << ' ';
+  x << "\n</DataArray>\n";
+  vectors("velocity", velocity);
+  vectors("contact_force", contact_force);
+  x << "</PointData>\n<Points>\n";
+  vectors("points", points);
+  x << "</Points>\n";
+  auto cellBlock = [&](const char* tag, Cell::Kind k) {
+    x << "<" << tag << ">\n<DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
+    for (const Cell& c : cells)
+      if (c.kind == k)
+        for (int p : c.points) x << p << ' ';
+    x << "\n</DataArray>\n<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n";
+    int offset = 0;
+    for (const Cell& c : cells)
+      if (c.kind == k) x << (offset += static_cast<int>(c.points.size())) << ' ';
+    x << "\n</DataArray>\n</" << tag << ">\n";
+  };
+  cellBlock("Verts", Cell::Kind::Vertex);
+  cellBlock("Lines", Cell::Kind::Line);
+  cellBlock("Polys", Cell::Kind::Polygon);
+  x << "</Piece>\n</PolyData>\n</VTKFile>\n";
+
+  std::ostringstream name;
+  name << "vtk/snapshot_" << std::setw(6) << std::setfill('0') << entries_.size() << ".vtp";
+  writeFileAtomically(dir_ + "/" + name.str(), x.str());
+  entries_.emplace_back(t, name.str());
+
+  std::ostringstream pvd;
+  pvd << std::setprecision(17)
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+  for (const auto& [time, file] : entries_)
+    pvd << "<DataSet timestep=\"" << time << "\" part=\"0\" file=\"" << file << "\"/>\n";
+  pvd << "</Collection>\n</VTKFile>\n";
+  writeFileAtomically(dir_ + "/snapshots.pvd", pvd.str());
+}
+
+}  // namespace sweep

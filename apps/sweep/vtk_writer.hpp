@@ -1,0 +1,28 @@
+#pragma once
+// VTK snapshots for ParaView: one PolyData file (.vtp) per snapshot, the bodies' shapes as
+// vertices (disks, spheres and other bodies by their centre), lines (segments) and polygons,
+// with body id, kind, radius, velocity and contact force as point data; and a .pvd collection
+// that lists the snapshots with their times, rewritten after each one so it is always valid.
+#include <string>
+#include <vector>
+
+#include "integrators/time_stepper.hpp"
+#include "models/granular.hpp"
+
+namespace sweep {
+
+class VtkSeries {
+ public:
+  VtkSeries(const Scene& scene, const std::string& out_dir);
+  void write(const TimeStepper& stepper);
+  int count() const { return static_cast<int>(entries_.size()); }
+
+ private:
+  const Scene& scene_;
+  std::string dir_;
+  Data data_;
+  ContactData cdata_;
+  std::vector<std::pair<double, std::string>> entries_;  // time, file name
+};
+
+}  // namespace sweep

@@ -1,0 +1,215 @@
+#include "apps/sweep/yaml_field.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+YamlField YamlField::operator[](const std::string& key) const {
+  requireMap();
+  return YamlField(node_[key], file_, path_.empty() ? key : path_ + "." + key);
+}
+
+YamlField YamlField::at(std::size_t index) const {
+  return YamlField(node_[index], file_, path_ + "[" + std::to_string(index) + "]");
+}
+
+std::vector<std::string> YamlField::keys() const {
+  requireMap();
+  std::vector<std::string> out;
+  for (const auto& entry : node_) out.push_back(entry.first.as<std::string>());
+  return out;
+}
+
+std::string YamlField::quoted() const {
+  if (!node_.IsDefined() || node_.IsNull()) return "nothing";
+  if (node_.IsScalar()) return node_.Scalar();
+  YAML::Emitter out;
+  out << YAML::Flow << node_;
+  return out.c_str();
+}
+
+void YamlField::fail(const std::string& rule) const {
+  throw InputError(file_ + ": " + (path_.empty() ? "top level" : path_) + ": " + rule + ", got " +
+                   quoted());
+}
+
+const YamlField& YamlField::requireMap() const {
+  if (!node_.IsMap()) fail("must be a map of key: value");
+  return *this;
+}
+
+const YamlField& YamlField::requireSequence() const {
+  if (!node_.IsSequence()) fail("must be a list");
+  return *this;
+}
+
+void YamlField::allowOnly(std::initializer_list<const char*> allowed) const {
+  requireMap();
+  for (const std::string& key : keys()) {
+    bool known = false;
+    for (const char* a : allowed) known = known || key == a;
+    if (known) continue;
+    std::string list;
+    for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+    throw InputError(file_ + ": " + (path_.empty() ? "" : path_ + ".") + key +
+                     ": unknown key (expected one of: " + list + ")");
+  }
+}
+
+double YamlField::number() const {
+  if (!node_.IsScalar()) fail("must be a number");
+  const std::string& s = node_.Scalar();
+  errno = 0;
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE) fail("must be a number");
+  if (!std::isfinite(x)) fail("must be finite");
+  return x;
+}
+
+double YamlField::positive() const {
+  const double x = number();
+  if (!(x > 0.0)) fail("must be > 0");
+  return x;
+}
+
+double YamlField::nonNegative() const {
+  const double x = number();
+  if (!(x >= 0.0)) fail("must be >= 0");
+  return x;
+}
+
+long YamlField::integer() const {
+  if (!node_.IsScalar()) fail("must be an integer");
+  const std::string& s = node_.Scalar();
+  errno = 0;
+  char* end = nullptr;
+  const long x = std::strtol(s.c_str(), &end, 10);
+  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE) fail("must be an integer");
+  return x;
+}
+
+bool YamlField::boolean() const {
+  if (node_.IsScalar()) {
+    const std::string& s = node_.Scalar();
+    if (s == "true" || s == "yes" || s == "on") return true;
+    if (s == "false" || s == "no" || s == "off") return false;
+  }
+  fail("must be true or false");
+}
+
+std::string YamlField::text() const {
+  if (!node_.IsScalar()) fail("must be a string");
+  return node_.Scalar();
+}
+
+std::vector<double> YamlField::numbers() const {
+  requireSequence();
+  std::vector<double> out;
+  for (std::size_t i = 0; i < size(); ++i) out.push_back(at(i).number());
+  return out;
+}
+
+Vector3 YamlField::vector(int dimension) const {
+  if (!node_.IsSequence() || !(node_.size() == static_cast<std::size_t>(dimension)))
+    fail("must be a list of " + std::to_string(dimension) + " numbers");
+  Vector3 v = Vector3::Zero();
+  for (int k = 0; k < dimension; ++k) v[k] = at(k).number();
+  return v;
+}
+
+double YamlField::number(const std::string& key, double fallback) const {
+  return has(key) ? (*this)[key].number() : fallback;
+}
+double YamlField::positive(const std::string& key, double fallback) const {
+  return has(key) ? (*this)[key].positive() : fallback;
+}
+double YamlField::nonNegative(const std::string& key, double fallback) const {
+  return has(key) ? (*this)[key].nonNegative() : fallback;
+}
+long YamlField::integer(const std::string& key, long fallback) const {
+  return has(key) ? (*this)[key].integer() : fallback;
+}
+bool YamlField::boolean(const std::string& key, bool fallback) const {
+  return has(key) ? (*this)[key].boolean() : fallback;
+}
+std::string YamlField::text(const std::string& key, const std::string& fallback) const {
+  return has(key) ? (*this)[key].text() : fallback;
+}
+
+YAML::Node loadYamlFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open the file");
+  try {
+    YAML::Node root = YAML::Load(in);
+    if (!root.IsDefined() || root.IsNull()) throw InputError(path + ": the file is empty");
+    return root;
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                     std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+  }
+}
+
+void applyOverride(YAML::Node& root, const std::string& assignment, const std::string& file) {
+  const auto equals = assignment.find('=');
+  if (equals == std::string::npos || equals == 0)
+    throw InputError("--set " + assignment + ": expected path=value, e.g. scheme.h=1e-4");
+  const std::string path = assignment.substr(0, equals);
+  YAML::Node value;
+  try {
+    value = YAML::Load(assignment.substr(equals + 1));
+  } catch (const YAML::Exception& e) {
+    throw InputError("--set " + assignment + ": the value is not YAML: " + e.msg);
+  }
+  // walk with node handles; yaml-cpp's operator= on a handle would rebind it, so descend by
+  // reset() and assign the leaf through its parent
+  YAML::Node node = root;
+  std::size_t start = 0;
+  while (true) {
+    std::size_t stop = path.find_first_of(".[", start);
+    std::string key = path.substr(start, stop - start);
+    if (key.empty() && (stop == std::string::npos || path[stop] != '['))
+      throw InputError("--set " + assignment + ": empty field name in '" + path + "'");
+    YAML::Node next;
+    if (!key.empty()) {
+      if (!node.IsMap() && !node.IsNull())
+        throw InputError("--set " + assignment + ": " + file + ": '" + key +
+                         "' is inside something that is not a map");
+      if (stop == std::string::npos) {
+        node[key] = value;
+        return;
+      }
+      next.reset(node[key]);
+      node.reset(next);
+    }
+    if (path[stop] == '[') {
+      const std::size_t close = path.find(']', stop);
+      if (close == std::string::npos)
+        throw InputError("--set " + assignment + ": missing ']' in '" + path + "'");
+      const std::string digits = path.substr(stop + 1, close - stop - 1);
+      char* end = nullptr;
+      const long index = std::strtol(digits.c_str(), &end, 10);
+      if (digits.empty() || *end != '\0' || !node.IsSequence() || index < 0 ||
+          index >= static_cast<long>(node.size()))
+        throw InputError("--set " + assignment + ": " + file + ": no element [" + digits +
+                         "] there");
+      if (close + 1 == path.size()) {
+        node[index] = value;
+        return;
+      }
+      next.reset(node[index]);
+      node.reset(next);
+      stop = close + 1;
+      if (path[stop] != '.')
+        throw InputError("--set " + assignment + ": expected '.' after ']' in '" + path + "'");
+    }
+    start = stop + 1;
+  }
+}
+
+}  // namespace sweep

@@ -1,0 +1,72 @@
+#pragma once
+// A YAML node that knows where it is: the file and the field path (bodies[3].radius), so that
+// every rejection names both and quotes the value as written. Keys a section does not know
+// are errors, never ignored.
+#include <yaml-cpp/yaml.h>
+
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+#include "framework/spatial.hpp"
+
+namespace sweep {
+
+class YamlField {
+ public:
+  YamlField(YAML::Node node, std::string file, std::string path = "")
+      : node_(std::move(node)), file_(std::move(file)), path_(std::move(path)) {}
+
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+  bool isMap() const { return node_.IsMap(); }
+  bool isSequence() const { return node_.IsSequence(); }
+  bool isScalar() const { return node_.IsScalar(); }
+  bool isNull() const { return !node_.IsDefined() || node_.IsNull(); }
+  bool has(const std::string& key) const { return node_.IsMap() && node_[key]; }
+
+  YamlField operator[](const std::string& key) const;  // the map's child (maybe absent)
+  YamlField at(std::size_t index) const;               // the sequence's element
+  std::size_t size() const { return node_.size(); }
+  std::vector<std::string> keys() const;  // of a map, in file order
+
+  // Each throws InputError "FILE: PATH: RULE, got VALUE".
+  [[noreturn]] void fail(const std::string& rule) const;
+  const YamlField& requireMap() const;
+  const YamlField& requireSequence() const;
+  void allowOnly(std::initializer_list<const char*> keys) const;
+
+  double number() const;  // finite
+  double positive() const;
+  double nonNegative() const;
+  long integer() const;
+  bool boolean() const;
+  std::string text() const;
+  // `dimension` finite components; a 2D scene may give 2 (z = 0)
+  Vector3 vector(int dimension) const;
+  std::vector<double> numbers() const;
+
+  // Optional children: the fallback when the key is absent.
+  double number(const std::string& key, double fallback) const;
+  double positive(const std::string& key, double fallback) const;
+  double nonNegative(const std::string& key, double fallback) const;
+  long integer(const std::string& key, long fallback) const;
+  bool boolean(const std::string& key, bool fallback) const;
+  std::string text(const std::string& key, const std::string& fallback) const;
+
+ private:
+  std::string quoted() const;  // the value as written, for messages
+  YAML::Node node_;
+  std::string file_;
+  std::string path_;
+};
+
+// Parses a YAML file; syntax errors become InputError with line and column.
+YAML::Node loadYamlFile(const std::string& path);
+
+// Applies `path=value` (path as in messages: scheme.h, bodies[2].radius) to a document; the
+// value is parsed as YAML, so lists and numbers keep their types. InputError on a malformed
+// assignment or a path through a non-map.
+void applyOverride(YAML::Node& root, const std::string& assignment, const std::string& file);
+
+}  // namespace sweep

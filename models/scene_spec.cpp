@@ -1,0 +1,275 @@
+#include "models/scene_spec.hpp"
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <sstream>
+
+#include "framework/error.hpp"
+#include "framework/urdf_import.hpp"
+#include "models/rigid_bodies.hpp"
+
+namespace sweep {
+
+namespace {
+
+std::string format(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+std::string owner(const BodySpec& body) {
+  return "body '" + body.name + "'";
+}
+
+// Mass properties per unit density: area or volume, centroid, and the principal moments
+// about the centroid in shape axes (2D: only the z moment matters; x and y are set to half
+// of it so the 3x3 block stays positive definite).
+struct UnitInertia {
+  double measure = 0.0;
+  Vector3 centroid = Vector3::Zero();
+  Vector3 moments = Vector3::Zero();
+};
+
+UnitInertia planarMoment(double area, const Vector3& centroid, double polar_moment) {
+  return {area, centroid, Vector3(0.5 * polar_moment, 0.5 * polar_moment, polar_moment)};
+}
+
+UnitInertia unitInertia(const BodySpec& body) {
+  const Shape& s = body.shape;
+  const double r = s.radius;
+  switch (s.type) {
+    case ShapeType::Disk: {
+      const double area = M_PI * r * r;
+      return planarMoment(area, Vector3::Zero(), 0.5 * area * r * r);
+    }
+    case ShapeType::Polygon: {
+      // shoelace sums for area, first and second moments about the body origin
+      double area = 0.0, polar = 0.0;
+      Vector3 first = Vector3::Zero();
+      const std::size_t n = s.vertices.size();
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vector3& a = s.vertices[i];
+        const Vector3& b = s.vertices[(i + 1) % n];
+        const double cross = a.x() * b.y() - b.x() * a.y();
+        area += 0.5 * cross;
+        first.x() += cross * (a.x() + b.x()) / 6.0;
+        first.y() += cross * (a.y() + b.y()) / 6.0;
+        polar += cross *
+                 (a.x() * a.x() + a.x() * b.x() + b.x() * b.x() + a.y() * a.y() + a.y() * b.y() +
+                  b.y() * b.y()) /
+                 12.0;
+      }
+      const Vector3 centroid = first / area;
+      return planarMoment(area, centroid, polar - area * centroid.squaredNorm());
+    }
+    case ShapeType::Segment: {
+      // a rectangle L x 2r between two half-disks
+      const double length = (s.segment_end - s.segment_start).norm();
+      const double rect = 2.0 * r * length;
+      const double half_disk = 0.5 * M_PI * r * r;
+      const double offset = 4.0 * r / (3.0 * M_PI);  // half-disk centroid from its edge
+      const double about_edge = 0.5 * half_disk * r * r;
+      const double about_own = about_edge - half_disk * offset * offset;
+      const double arm = 0.5 * length + offset;
+      const double polar =
+          rect * (length * length + 4.0 * r * r) / 12.0 + 2.0 * (about_own + half_disk * arm * arm);
+      return planarMoment(rect + 2.0 * half_disk, 0.5 * (s.segment_start + s.segment_end), polar);
+    }
+    case ShapeType::Sphere: {
+      const double volume = 4.0 / 3.0 * M_PI * r * r * r;
+      return {volume, Vector3::Zero(), Vector3::Constant(0.4 * volume * r * r)};
+    }
+    case ShapeType::Box: {
+      const Vector3 size = 2.0 * s.half_extents;
+      const double volume = size.prod();
+      const Vector3 s2 = size.cwiseProduct(size);
+      return {volume, Vector3::Zero(),
+              volume / 12.0 * Vector3(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y())};
+    }
+    case ShapeType::Cylinder: {
+      const double volume = M_PI * r * r * s.length;
+      const double side = volume * (3.0 * r * r + s.length * s.length) / 12.0;
+      return {volume, Vector3::Zero(), Vector3(side, side, 0.5 * volume * r * r)};
+    }
+    case ShapeType::Capsule: {
+      const double l = s.length;
+      const double cylinder = M_PI * r * r * l;
+      const double caps = 4.0 / 3.0 * M_PI * r * r * r;
+      const double side = cylinder * (l * l / 12.0 + r * r / 4.0) +
+                          caps * (0.4 * r * r + l * l / 4.0 + 3.0 * l * r / 8.0);
+      return {cylinder + caps, Vector3::Zero(),
+              Vector3(side, side, 0.5 * cylinder * r * r + 0.4 * caps * r * r)};
+    }
+    default:
+      return {};
+  }
+}
+
+}  // namespace
+
+std::vector<double> sampleRadii(const RadiusDistribution& d, int count, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<double> radii(std::max(count, 0), d.a);
+  if (d.kind == RadiusDistribution::Kind::Normal) {
+    std::normal_distribution<double> normal(0.0, 1.0);
+    for (double& r : radii) {
+      double z = normal(rng);
+      while (std::abs(z) > 3.0) z = normal(rng);
+      r = d.a + d.b * z;
+    }
+  } else if (d.kind == RadiusDistribution::Kind::Uniform) {
+    std::uniform_real_distribution<double> uniform(d.a, d.b);
+    for (double& r : radii) r = uniform(rng);
+  }
+  return radii;
+}
+
+Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
+  const UnitInertia unit = unitInertia(body);
+  Inertia inertia;
+  inertia.com = unit.centroid;
+  if (body.mass && body.principal_inertia) {
+    inertia.mass = *body.mass;
+    inertia.inertia_com = body.principal_inertia->asDiagonal();
+  } else if (unit.measure > 0.0) {
+    inertia.mass = body.mass ? *body.mass : density * unit.measure;
+    inertia.inertia_com = (inertia.mass / unit.measure * unit.moments).asDiagonal();
+  } else {
+    throw InputError(owner(body) + ": a " + shapeTypeName(body.shape.type) +
+                     (dimension == 2 ? " has no area" : " has no closed-form volume") +
+                     "; give both mass and inertia");
+  }
+  if (!(inertia.mass > 0.0) || !std::isfinite(inertia.mass))
+    throw InputError(owner(body) + ": mass must be > 0, got " + format(inertia.mass) +
+                     (body.mass ? "" : " (density x size)"));
+  const Vector3 moments = inertia.inertia_com.diagonal();
+  if (!(moments.minCoeff() > 0.0) || !moments.allFinite())
+    throw InputError(owner(body) + ": inertia must be > 0 and finite, got [" + format(moments.x()) +
+                     ", " + format(moments.y()) + ", " + format(moments.z()) + "]");
+  return inertia;
+}
+
+Scene buildScene(const SceneSpec& spec) {
+  if (spec.dimension != 2 && spec.dimension != 3)
+    throw InputError(spec.source + ": dimension must be 2 or 3, got " +
+                     std::to_string(spec.dimension));
+  std::map<std::string, double> density;
+  for (const MaterialSpec& m : spec.materials) density[m.name] = m.density;
+  auto densityOf = [&](const BodySpec& body) {
+    if (body.material.empty()) return 0.0;
+    const auto it = density.find(body.material);
+    if (it == density.end())
+      throw InputError(owner(body) + ": no material named '" + body.material + "'");
+    return it->second;
+  };
+
+  ModelBuilder mb(spec.source);
+  mb.setGravity(spec.gravity);
+  for (const BodySpec& body : spec.bodies) {
+    if (isPlanarShape(body.shape.type) != (spec.dimension == 2))
+      throw InputError(owner(body) + ": a " + shapeTypeName(body.shape.type) + " in a " +
+                       std::to_string(spec.dimension) + "D scene");
+    validateShape(body.shape, owner(body));
+    if (body.kind == BodySpec::Kind::Dynamic) {
+      if (isUnbounded(body.shape))
+        throw InputError(owner(body) + ": a " + shapeTypeName(body.shape.type) +
+                         " cannot move; make it fixed");
+      const Inertia inertia = bodyInertia(body, densityOf(body), spec.dimension);
+      if (spec.dimension == 2)
+        addPlanarBody(mb, body.name, inertia);
+      else
+        addFreeBody(mb, body.name, inertia);
+    } else if (body.kind == BodySpec::Kind::Driven) {
+      const MotionSpec& m = body.motion;
+      DrivenBody driven =
+          m.kind == MotionSpec::Kind::Keyframes
+              ? DrivenBody::keyframes(body.name, body.pose.rotation, m.times, m.positions)
+              : DrivenBody::constantTwist(body.name, body.pose, m.linear_velocity,
+                                          m.angular_velocity);
+      driven.removal_time = m.removal_time;
+      mb.addDrivenBody(driven);
+    }
+  }
+  for (const UrdfSpec& urdf : spec.urdfs) {
+    UrdfOptions options;
+    options.floating_base = urdf.floating_base;
+    options.base_placement = urdf.base;
+    options.name_prefix = urdf.prefix;
+    addUrdf(mb, urdf.file, options);
+  }
+
+  Scene scene;
+  scene.model = mb.build();
+  const Model& model = scene.model;
+
+  ContactModelBuilder cb(model);
+  cb.setSettings(spec.detection);
+  MaterialTable& table = cb.materials();
+  table.setDefaultLaw(spec.default_law);
+  for (const MaterialSpec& m : spec.materials) table.add(m.name);
+  for (const ContactLawSpec& law : spec.laws)
+    table.setLaw(table.id(law.material_a), table.id(law.material_b), law.law);
+  auto materialId = [&](const std::string& name) { return name.empty() ? 0 : table.id(name); };
+
+  scene.q0 = model.neutralConfiguration();
+  scene.v0 = VectorX::Zero(model.nv);
+  int driven = 0;
+  for (const BodySpec& body : spec.bodies) {
+    const int material = materialId(body.material);
+    switch (body.kind) {
+      case BodySpec::Kind::Fixed:
+        cb.addGeometry(body.name, BodyRef::world(), body.pose, body.shape, material);
+        break;
+      case BodySpec::Kind::Driven:
+        cb.addGeometry(body.name, BodyRef::driven(driven++), Pose::identity(), body.shape,
+                       material);
+        break;
+      case BodySpec::Kind::Dynamic: {
+        const int index = model.bodyIndex(body.name);
+        cb.addGeometry(body.name, BodyRef::dynamic(index), Pose::identity(), body.shape, material);
+        const Body& b = model.bodies[index];
+        if (spec.dimension == 2) {
+          const Matrix3& R = body.pose.rotation;
+          scene.q0.segment<3>(b.q_index) << body.pose.translation.x(), body.pose.translation.y(),
+              std::atan2(R(1, 0), R(0, 0));
+          scene.v0.segment<3>(b.v_index) << body.velocity.x(), body.velocity.y(),
+              body.angular_velocity.z();
+        } else {
+          const Eigen::Quaterniond quaternion(body.pose.rotation);
+          scene.q0.segment<3>(b.q_index) = body.pose.translation;
+          scene.q0.segment<4>(b.q_index + 3) = quaternion.coeffs();
+          scene.v0.segment<3>(b.v_index) = body.velocity;
+          scene.v0.segment<3>(b.v_index + 3) =
+              body.pose.rotation.transpose() * body.angular_velocity;
+        }
+        break;
+      }
+    }
+  }
+
+  int urdf_material_from = 0;
+  for (const UrdfSpec& urdf : spec.urdfs) {
+    for (const auto& [joint, value] : urdf.joint_positions) {
+      const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
+      if (b.joint.nq() != 1)
+        throw InputError(spec.source + ": joint '" + joint + "' has " +
+                         std::to_string(b.joint.nq()) + " coordinates; set it by its state");
+      scene.q0[b.q_index] = value;
+    }
+    for (const auto& [joint, value] : urdf.joint_velocities) {
+      const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
+      if (b.joint.nv() != 1)
+        throw InputError(spec.source + ": joint '" + joint + "' has " +
+                         std::to_string(b.joint.nv()) + " velocities; set it by its state");
+      scene.v0[b.v_index] = value;
+    }
+    if (!urdf.material.empty()) urdf_material_from = materialId(urdf.material);
+  }
+  if (!spec.urdfs.empty()) cb.addModelCollisions(urdf_material_from);
+  scene.cmodel = cb.build();
+  return scene;
+}
+
+}  // namespace sweep

@@ -1,0 +1,96 @@
+#pragma once
+// A scene as data: bodies with shapes, materials, contact laws, driven motions and URDF models,
+// before any Model is built. Scene files (apps/sweep) parse into it, generators such as the
+// Hall funnel produce it, and the exporter writes it back as an explicit scene file, so one
+// scene has one description whichever way it was made.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "contact/contact_model.hpp"
+#include "models/granular.hpp"
+
+namespace sweep {
+
+struct MaterialSpec {
+  std::string name;
+  double density = 0.0;  // kg/m^3 (2D scenes: mass per unit thickness and area)
+};
+
+struct ContactLawSpec {
+  std::string material_a, material_b;
+  ContactLaw law;
+};
+
+// Prescribed motion of a driven body. The body frame starts at BodySpec::pose.
+struct MotionSpec {
+  enum class Kind { Fixed, Velocity, Keyframes };
+  Kind kind = Kind::Fixed;
+  Vector3 linear_velocity = Vector3::Zero();   // Velocity: of the body origin
+  Vector3 angular_velocity = Vector3::Zero();  // Velocity: spin about the body origin
+  std::vector<double> times;                   // Keyframes
+  std::vector<Vector3> positions;              // Keyframes: of the body origin
+  double removal_time = std::numeric_limits<double>::infinity();
+};
+
+struct BodySpec {
+  enum class Kind { Dynamic, Fixed, Driven };
+  std::string name;
+  Kind kind = Kind::Dynamic;
+  Shape shape;
+  std::string material;                // empty: the default material
+  Pose pose;                           // body frame in world at t = 0 (2D: rotation about z)
+  Vector3 velocity = Vector3::Zero();  // Dynamic: of the body origin, world frame
+  Vector3 angular_velocity = Vector3::Zero();  // Dynamic: world frame
+  std::optional<double> mass;                  // default: density x volume (2D: area)
+  std::optional<Vector3> principal_inertia;    // about the centroid, shape axes
+  MotionSpec motion;                           // Driven
+};
+
+struct UrdfSpec {
+  std::string file;
+  std::string prefix;
+  bool floating_base = false;
+  Pose base;
+  std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
+  std::string material;
+};
+
+struct SceneSpec {
+  std::string source = "scene";  // names the scene in error messages
+  int dimension = 2;
+  Vector3 gravity = Vector3(0, -9.81, 0);
+  std::vector<MaterialSpec> materials;
+  ContactLaw default_law{0.0, 0.0};
+  std::vector<ContactLawSpec> laws;
+  std::vector<BodySpec> bodies;
+  std::vector<UrdfSpec> urdfs;
+  DetectionSettings detection;
+};
+
+// Grain radii: one value, a normal law truncated at +-3 standard deviations (redrawn beyond),
+// or a uniform law on [low, high].
+struct RadiusDistribution {
+  enum class Kind { Constant, Normal, Uniform };
+  Kind kind = Kind::Constant;
+  double a = 0.0;  // the radius, the mean, or the low end
+  double b = 0.0;  // -, the standard deviation, or the high end
+
+  static RadiusDistribution constant(double r) { return {Kind::Constant, r, 0.0}; }
+  static RadiusDistribution normal(double mean, double std) { return {Kind::Normal, mean, std}; }
+  static RadiusDistribution uniform(double low, double high) { return {Kind::Uniform, low, high}; }
+};
+std::vector<double> sampleRadii(const RadiusDistribution& distribution, int count,
+                                std::uint32_t seed);
+
+// Mass and inertia of a dynamic body about its frame: the shape's area (2D) or volume (3D)
+// times the density, unless BodySpec overrides them. InputError when neither is possible
+// (a mesh without explicit mass and inertia, a half-plane).
+Inertia bodyInertia(const BodySpec& body, double density, int dimension);
+
+// Builds the Model (dynamic bodies, then URDF trees; driven bodies), the ContactModel and the
+// initial state. InputError naming the body for anything inconsistent.
+Scene buildScene(const SceneSpec& spec);
+
+}  // namespace sweep
