@@ -46,16 +46,6 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
       << "\n";
 }
 
-sweep::Scene buildOrExplain(const sweep::SceneFile& file) {
-  try {
-    return sweep::buildScene(file.spec);
-  } catch (const sweep::InputError& e) {
-    const std::string message = e.what();
-    if (message.rfind(file.path, 0) == 0) throw;
-    throw sweep::InputError(file.path + ": " + message);
-  }
-}
-
 void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {
   out << std::setprecision(4);
   out << "\n"
@@ -148,7 +138,7 @@ int main(int argc, char** argv) {
         throw sweep::InputError("--t-end: must be > 0, got " + std::to_string(t_end));
       file.run.t_end = t_end;
     }
-    const sweep::Scene scene = buildOrExplain(file);
+    const sweep::Scene scene = sweep::buildSceneFile(file);
     file.run.scheme.validate();
 
     if (check->parsed()) {

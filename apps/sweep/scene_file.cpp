@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -69,6 +70,7 @@ class SceneParser {
     if (root.has("bodies")) {
       const YamlField bodies = root["bodies"];
       bodies.requireSequence();
+      explicit_from_ = spec.bodies.size();
       for (std::size_t i = 0; i < bodies.size(); ++i)
         spec.bodies.push_back(parseBody(bodies.at(i)));
     }
@@ -549,12 +551,19 @@ class SceneParser {
 
   void checkNames(const YamlField& root) {
     std::set<std::string> seen;
-    for (const BodySpec& b : out_.spec.bodies)
-      if (!seen.insert(b.name).second) root["bodies"].fail("two bodies are named '" + b.name + "'");
+    const auto& bodies = out_.spec.bodies;
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      if (seen.insert(bodies[i].name).second) continue;
+      if (i >= explicit_from_)
+        root["bodies"].at(i - explicit_from_)["name"].fail("another body has this name");
+      root["generators"].fail("two generated bodies are named '" + bodies[i].name + "'");
+    }
   }
 
   const std::string& path_;
   SceneFile& out_;
+  // spec.bodies from here on are the file's bodies list
+  std::size_t explicit_from_ = std::numeric_limits<std::size_t>::max();
 };
 
 }  // namespace
@@ -616,6 +625,16 @@ void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
 }
 
 }  // namespace
+
+Scene buildSceneFile(const SceneFile& file) {
+  try {
+    return buildScene(file.spec);
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    if (message.rfind(file.path + ":", 0) == 0) throw;
+    throw InputError(file.path + ": " + message);
+  }
+}
 
 void writeSceneFile(const SceneFile& scene, const std::string& path) {
   const SceneSpec& spec = scene.spec;

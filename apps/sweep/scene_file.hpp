@@ -32,6 +32,9 @@ struct SceneFile {
 // them). InputError for anything wrong, naming file, field and value.
 SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides = {});
 
+// Builds the Model, contact model and initial state; InputError names the file.
+Scene buildSceneFile(const SceneFile& file);
+
 // Writes the scene as an explicit file (every body listed, no generators) that loads back to
 // the same scene: generators are a convenience, not the only way to say a scene.
 void writeSceneFile(const SceneFile& scene, const std::string& path);

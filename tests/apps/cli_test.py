@@ -1,0 +1,180 @@
+#!/usr/bin/python3
+"""End-to-end tests of the `sweep` binary: files written by run and bench, exit codes,
+messages of the malformed-scene catalogue, --set, and Ctrl-C. Usage: cli_test.py SWEEP DATA"""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+import xml.etree.ElementTree as ET
+
+SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
+DATA = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "tests/data"
+SCENES = os.path.join(DATA, "scenes")
+HEADER = ("step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,"
+          "pen_sum,pen_count,kinetic,potential,work_normal,work_tangent,t_detect,t_assemble,"
+          "t_solve,t_update")
+
+
+def sweep(*args, cwd=SCENES):
+    return subprocess.run([SWEEP, *args], cwd=cwd, capture_output=True, text=True, timeout=600)
+
+
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def leftovers(folder):
+    return [os.path.join(d, f) for d, _, files in os.walk(folder) for f in files
+            if f.endswith(".partial")]
+
+
+class Run(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out = tempfile.mkdtemp(prefix="sweep_run_")
+        cls.result = sweep("run", "small_box.yaml", "--out", cls.out, "--quiet")
+
+    def test_exit_code_and_summary_screen(self):
+        self.assertEqual(self.result.returncode, 0, self.result.stderr)
+        self.assertIn("catching-up: 200 steps", self.result.stdout)
+        self.assertIn("detection analytic", self.result.stdout)
+
+    def test_stats_csv(self):
+        with open(os.path.join(self.out, "stats.csv")) as f:
+            self.assertEqual(f.readline().strip(), HEADER)
+        rows = read_csv(os.path.join(self.out, "stats.csv"))
+        self.assertEqual(len(rows), 200)
+        self.assertEqual([int(r["step"]) for r in rows], list(range(1, 201)))
+        self.assertAlmostEqual(float(rows[-1]["t"]), 0.02, places=12)
+
+    def test_summary_agrees_with_stats(self):
+        with open(os.path.join(self.out, "summary.json")) as f:
+            s = json.load(f)
+        rows = read_csv(os.path.join(self.out, "stats.csv"))
+        for key in ("scheme", "dt", "t_end", "steps", "cpu_seconds", "wall_seconds",
+                    "penetration", "iterations", "contacts", "energy"):
+            self.assertIn(key, s)
+        self.assertEqual(s["scheme"], "catching-up")
+        self.assertEqual(s["steps"], len(rows))
+        self.assertFalse(s["interrupted"])
+        pen = sum(float(r["pen_sum"]) for r in rows)
+        self.assertAlmostEqual(s["penetration"]["cumulative"], pen, delta=1e-12 * max(pen, 1e-30))
+        self.assertAlmostEqual(s["penetration"]["peak"], max(float(r["pen_max"]) for r in rows))
+        totals = [int(r["iters_stage1"]) + int(r["iters_stage2"]) for r in rows]
+        self.assertEqual(s["iterations"]["max"], max(totals))
+        self.assertAlmostEqual(s["iterations"]["mean"], sum(totals) / len(totals))
+        self.assertEqual(s["iterations"]["cap_hit_steps"], sum(int(r["cap_hit"]) for r in rows))
+        self.assertEqual(s["contacts"]["max_active"], max(int(r["n_active"]) for r in rows))
+        final = float(rows[-1]["kinetic"]) + float(rows[-1]["potential"])
+        self.assertAlmostEqual(s["energy"]["final"], final, delta=1e-9 * abs(final))
+
+    def test_vtk_series(self):
+        pvd = ET.parse(os.path.join(self.out, "snapshots.pvd")).getroot()
+        datasets = pvd.findall("./Collection/DataSet")
+        self.assertEqual(len(datasets), 1 + 200 // 50)
+        for k, d in enumerate(datasets):
+            piece = ET.parse(os.path.join(self.out, d.get("file"))).getroot().find("./PolyData/Piece")
+            n = int(piece.get("NumberOfPoints"))
+            # 24 disks, and the paddle's two end points until it is removed at t = 0.015
+            paddle = 2 if float(d.get("timestep")) < 0.015 else 0
+            self.assertEqual(n, 24 + paddle, d.get("file"))
+            points = piece.find("./Points/DataArray").text.split()
+            self.assertEqual(len(points), 3 * n)
+            names = {a.get("Name") for a in piece.findall("./PointData/DataArray")}
+            self.assertTrue({"body_id", "radius", "velocity", "contact_force"} <= names)
+            for a in piece.findall("./PointData/DataArray"):
+                width = int(a.get("NumberOfComponents", "1"))
+                self.assertEqual(len(a.text.split()), width * n, a.get("Name"))
+
+    def test_no_partial_files(self):
+        self.assertEqual(leftovers(self.out), [])
+
+
+class Inputs(unittest.TestCase):
+    def test_every_malformed_scene_exits_2_with_its_message(self):
+        bad = sorted(os.listdir(os.path.join(SCENES, "bad")))
+        self.assertGreaterEqual(len(bad), 20)
+        for name in bad:
+            with open(os.path.join(SCENES, "bad", name)) as f:
+                expected = f.readline()[len("# expect: "):].rstrip("\n")
+            r = sweep("check", os.path.join("bad", name))
+            self.assertEqual(r.returncode, 2, name)
+            self.assertEqual(r.stderr.strip(), "sweep: error: " + expected, name)
+
+    def test_missing_file(self):
+        r = sweep("run", "no_such_scene.yaml")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("no_such_scene.yaml: cannot open the file", r.stderr)
+
+    def test_bad_command_line(self):
+        self.assertEqual(sweep("run", "small_box.yaml", "--dt", "-1").returncode, 2)
+        self.assertEqual(sweep("run", "small_box.yaml", "--scheme", "euler").returncode, 2)
+        self.assertEqual(sweep("frobnicate").returncode, 2)
+        r = sweep("run", "small_box.yaml", "--set", "time.stepp=1")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("time.stepp: unknown key", r.stderr)
+
+    def test_set_and_options_override_the_scene(self):
+        out = tempfile.mkdtemp(prefix="sweep_set_")
+        r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set", "time.end=0.005",
+                  "--scheme", "moreau-jean", "--dt", "2.5e-4")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(os.path.join(out, "summary.json")) as f:
+            s = json.load(f)
+        self.assertEqual(s["scheme"], "moreau-jean")
+        self.assertEqual(s["steps"], 20)
+
+    def test_check_describes_without_running(self):
+        r = sweep("check", "small_box.yaml")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("scene is valid", r.stdout)
+        self.assertIn("24 with a constant mass block", r.stdout)
+
+
+class Interrupt(unittest.TestCase):
+    def test_ctrl_c_leaves_valid_flagged_results(self):
+        out = tempfile.mkdtemp(prefix="sweep_int_")
+        p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
+                              "--set", "time.end=1000"], cwd=SCENES,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(1.5)
+        p.send_signal(signal.SIGINT)
+        stdout, stderr = p.communicate(timeout=60)
+        self.assertEqual(p.returncode, 130, stderr)
+        with open(os.path.join(out, "summary.json")) as f:
+            s = json.load(f)
+        self.assertTrue(s["interrupted"])
+        rows = read_csv(os.path.join(out, "stats.csv"))
+        self.assertEqual(len(rows), s["steps"])
+        self.assertGreater(s["steps"], 0)
+        self.assertEqual(leftovers(out), [])
+
+
+class Bench(unittest.TestCase):
+    def test_bench_writes_table_and_figures(self):
+        out = tempfile.mkdtemp(prefix="sweep_bench_")
+        r = sweep("bench", "small_box.yaml", "--dt", "2e-4,1e-4", "--t-end", "0.004",
+                  "--out", out, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        rows = read_csv(os.path.join(out, "bench.csv"))
+        self.assertEqual(len(rows), 4)
+        self.assertEqual({r["scheme"] for r in rows}, {"moreau-jean", "catching-up"})
+        self.assertEqual(sorted(int(r["steps"]) for r in rows), [20, 20, 40, 40])
+        for png in ("cpu_and_penetration_vs_dt.png", "cpu_vs_penetration.png",
+                    "iterations_per_step.png"):
+            path = os.path.join(out, png)
+            self.assertTrue(os.path.exists(path), png)
+            with open(path, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+            self.assertGreater(os.path.getsize(path), 1000)
+        self.assertEqual(leftovers(out), [])
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"])

@@ -1,0 +1,183 @@
+// Scene files: the malformed catalogue (exact messages), what a valid file builds, the Hall
+// funnel as generator and as explicit file, --set overrides, and a run's summary against its
+// own per-step record.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_file.hpp"
+#include "apps/sweep/yaml_field.hpp"
+#include "framework/error.hpp"
+#include "models/funnel.hpp"
+
+namespace sweep {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Scene paths in messages are as given: run from the scenes folder with relative paths.
+class InScenesFolder : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    previous_ = fs::current_path();
+    fs::current_path(std::string(SWEEP_TEST_DATA) + "/scenes");
+  }
+  void TearDown() override { fs::current_path(previous_); }
+  fs::path previous_;
+};
+
+std::string expectedMessage(const fs::path& file) {
+  std::ifstream in(file);
+  std::string first;
+  std::getline(in, first);
+  const std::string tag = "# expect: ";
+  return first.rfind(tag, 0) == 0 ? first.substr(tag.size()) : "";
+}
+
+TEST_F(InScenesFolder, EveryMalformedSceneIsRejectedWithItsExactMessage) {
+  int checked = 0;
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator("bad")) files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    const std::string expected = expectedMessage(file);
+    ASSERT_FALSE(expected.empty()) << file << " has no '# expect:' line";
+    std::string got;
+    try {
+      const SceneFile scene = loadSceneFile(file.string());
+      buildSceneFile(scene);
+    } catch (const InputError& e) {
+      got = e.what();
+    }
+    EXPECT_EQ(got, expected) << file;
+    ++checked;
+  }
+  EXPECT_GE(checked, 20);
+}
+
+TEST_F(InScenesFolder, SmallBoxBuildsWhatItSays) {
+  const SceneFile file = loadSceneFile("small_box.yaml");
+  EXPECT_EQ(file.spec.dimension, 2);
+  EXPECT_EQ(file.spec.bodies.size(), 24u + 4u);
+  EXPECT_EQ(file.run.scheme.scheme, Scheme::CatchingUp);
+  EXPECT_DOUBLE_EQ(file.run.scheme.h, 1e-4);
+  EXPECT_DOUBLE_EQ(file.run.t_end, 0.02);
+  EXPECT_EQ(file.run.output.vtk_every, 50);
+  const Scene scene = buildSceneFile(file);
+  EXPECT_EQ(scene.model.nv, 3 * 24);
+  EXPECT_EQ(scene.model.driven_bodies.size(), 1u);
+  const MaterialTable& m = scene.cmodel.materials;
+  EXPECT_DOUBLE_EQ(m.law(m.id("steel"), m.id("wall")).friction, 0.4);
+  EXPECT_DOUBLE_EQ(m.law(m.id("steel"), m.id("steel")).friction, 0.3);
+  // masses from the density: m = rho pi r^2
+  const Body& first = scene.model.bodies[scene.model.bodyIndex("disk0")];
+  const double r = file.spec.bodies[0].shape.radius;
+  EXPECT_NEAR(first.inertia.mass, 7800.0 * M_PI * r * r, 1e-12);
+  EXPECT_NEAR(first.inertia.inertia_com(2, 2), 0.5 * first.inertia.mass * r * r, 1e-15);
+}
+
+TEST_F(InScenesFolder, OverridesReachTheScene) {
+  const SceneFile file = loadSceneFile(
+      "small_box.yaml",
+      {"time.step=5e-5", "scheme.normal_law=pos", "generators[0].count=10", "contact.friction=0"});
+  EXPECT_DOUBLE_EQ(file.run.scheme.h, 5e-5);
+  EXPECT_EQ(file.run.scheme.normal_law, NormalLaw::Pos);
+  EXPECT_EQ(file.spec.bodies.size(), 10u + 4u);
+  EXPECT_DOUBLE_EQ(file.spec.default_law.friction, 0.0);
+  // a typo is caught by the same validation as the file itself
+  EXPECT_THROW(loadSceneFile("small_box.yaml", {"time.stepp=1"}), InputError);
+  EXPECT_THROW(loadSceneFile("small_box.yaml", {"generators[7].count=1"}), InputError);
+  EXPECT_THROW(loadSceneFile("small_box.yaml", {"no_equals_sign"}), InputError);
+}
+
+TEST(SceneSpec, PolygonAndSegmentInertiasMatchTheirClosedForms) {
+  BodySpec square;
+  square.name = "square";
+  square.shape = Shape::polygon({Vector2(0, 0), Vector2(2, 0), Vector2(2, 2), Vector2(0, 2)});
+  const Inertia a = bodyInertia(square, 3.0, 2);
+  EXPECT_NEAR(a.mass, 12.0, 1e-12);
+  EXPECT_TRUE(a.com.isApprox(Vector3(1, 1, 0)));
+  EXPECT_NEAR(a.inertia_com(2, 2), 12.0 * (4.0 + 4.0) / 12.0, 1e-12);  // m (a^2 + b^2) / 12
+  // a rounded segment of length 0 is a disk
+  BodySpec dot;
+  dot.name = "dot";
+  dot.shape = Shape::segment(Vector2(0, 0), Vector2(1e-9, 0), 0.5);
+  const Inertia b = bodyInertia(dot, 1.0, 2);
+  EXPECT_NEAR(b.mass, M_PI * 0.25, 1e-8);
+  EXPECT_NEAR(b.inertia_com(2, 2), 0.5 * b.mass * 0.25, 1e-8);
+}
+
+TEST(SceneFile, FunnelFileAndGeneratorGiveTheSameScene) {
+  const SceneFile file =
+      loadSceneFile(std::string(SWEEP_SOURCE_DIR) + "/examples/funnel/funnel.yaml");
+  const SceneSpec direct = hallFunnel(FunnelParameters{});
+  ASSERT_EQ(file.spec.bodies.size(), direct.bodies.size());
+  for (std::size_t i = 0; i < direct.bodies.size(); ++i) {
+    EXPECT_EQ(file.spec.bodies[i].name, direct.bodies[i].name);
+    EXPECT_EQ(file.spec.bodies[i].shape.radius, direct.bodies[i].shape.radius);
+    EXPECT_EQ(file.spec.bodies[i].pose.translation, direct.bodies[i].pose.translation);
+  }
+}
+
+TEST(SceneFile, ExportedFunnelLoadsBackToTheSameScene) {
+  const SceneFile file =
+      loadSceneFile(std::string(SWEEP_SOURCE_DIR) + "/examples/funnel/funnel.yaml");
+  const std::string path = ::testing::TempDir() + "/funnel_explicit.yaml";
+  writeSceneFile(file, path);
+  const SceneFile back = loadSceneFile(path);
+  ASSERT_EQ(back.spec.bodies.size(), file.spec.bodies.size());
+  for (std::size_t i = 0; i < file.spec.bodies.size(); ++i) {
+    const BodySpec& a = file.spec.bodies[i];
+    const BodySpec& b = back.spec.bodies[i];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.kind, b.kind);
+    EXPECT_EQ(a.shape.radius, b.shape.radius);
+    EXPECT_EQ(a.pose.translation, b.pose.translation);
+    EXPECT_EQ(a.shape.segment_start, b.shape.segment_start);
+    EXPECT_EQ(a.motion.removal_time, b.motion.removal_time);
+  }
+  EXPECT_EQ(back.run.scheme.h, file.run.scheme.h);
+  // and the two run identically
+  RunSettings settings = file.run;
+  settings.t_end = 0.005;
+  const RunSummary x = runScene(buildSceneFile(file), settings, {});
+  const RunSummary y = runScene(buildSceneFile(back), settings, {});
+  EXPECT_EQ(x.penetration_cumulative, y.penetration_cumulative);
+  EXPECT_EQ(x.energy_final, y.energy_final);
+}
+
+TEST(RunSummary, PercentilesAreNearestRank) {
+  std::vector<int> values;
+  for (int i = 1; i <= 100; ++i) values.push_back(i);
+  const Distribution d = distributionOf(values);
+  EXPECT_DOUBLE_EQ(d.mean, 50.5);
+  EXPECT_DOUBLE_EQ(d.p50, 50);
+  EXPECT_DOUBLE_EQ(d.p95, 95);
+  EXPECT_DOUBLE_EQ(d.p99, 99);
+  EXPECT_DOUBLE_EQ(d.max, 100);
+}
+
+TEST_F(InScenesFolder, ARunIsDeterministicAndItsSummaryMatchesItsSteps) {
+  const SceneFile file = loadSceneFile("small_box.yaml");
+  const Scene scene = buildSceneFile(file);
+  RunOptions options;
+  options.keep_iterations = true;
+  const RunSummary a = runScene(scene, file.run, options);
+  const RunSummary b = runScene(scene, file.run, options);
+  EXPECT_EQ(a.steps, 200);
+  EXPECT_EQ(a.iterations_per_step, b.iterations_per_step);
+  EXPECT_EQ(a.penetration_cumulative, b.penetration_cumulative);
+  EXPECT_EQ(a.energy_final, b.energy_final);
+  ASSERT_EQ(a.iterations_per_step.size(), 200u);
+  double sum = 0.0;
+  for (int n : a.iterations_per_step) sum += n;
+  EXPECT_DOUBLE_EQ(a.iterations.mean, sum / 200.0);
+  // the grains settle: energy goes down, and the paddle was pushed into them and removed
+  EXPECT_LT(a.energy_final, a.energy_initial);
+  EXPECT_GT(a.max_active, 0);
+}
+
+}  // namespace
+}  // namespace sweep
