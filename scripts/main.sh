@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The main job: builds Sweep and runs the headline example.
+# The main job: installs the dependencies, builds Sweep, and runs the Hall funnel with both
+# schemes (results, bench table and the seed's Figures 1-3 in results/funnel/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/build.sh
-./build/examples/double_pendulum/double_pendulum_demo "$@"
+./examples/funnel/make_figures.sh results/funnel "$@"

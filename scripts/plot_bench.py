@@ -89,7 +89,8 @@ def plot_pareto(rows, folder, gains):
             ax.loglog(*zip(*pts), **style)
     if gains:
         best = max(gains, key=lambda g: g[4])
-        ax.annotate(f"{best[4]:.0f}x faster at equal penetration\n(h = {best[0]:g})",
+        verdict = "faster" if best[4] >= 1 else "(slower)"
+        ax.annotate(f"{best[4]:.3g}x {verdict} at equal penetration\n(staggered h = {best[0]:g})",
                     xy=(best[1], best[2]), xytext=(best[1], best[3]),
                     arrowprops=dict(arrowstyle="<->"), fontsize=9)
     ax.set_xlabel("cumulative penetration (m)")
@@ -155,7 +156,7 @@ def main(argv):
     plot_pareto(rows, folder, gains)
     plot_iterations(rows, folder, wanted_dt)
     for g in gains:
-        print(f"h = {g[0]:g}: speed-up at equal penetration {g[4]:.1f}x")
+        print(f"h = {g[0]:g}: speed-up at equal penetration {g[4]:.3g}x")
     if not gains:
         print("no speed-up at equal penetration: the penetration ranges do not overlap")
     return 0
