@@ -19,11 +19,7 @@ const char* detectionPathName(DetectionPath path) {
 }
 
 void DetectionSettings::validate() const {
-  auto show = [](double x) {
-    std::ostringstream out;
-    out << x;
-    return out.str();
-  };
+  const auto show = formatValue;
   if (!(std::isfinite(speed_factor) && speed_factor >= 0.0))
     throw InputError("detection.speed_factor must be >= 0, got " + show(speed_factor));
   if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));

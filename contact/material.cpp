@@ -55,11 +55,7 @@ bool MaterialTable::frictionless() const {
 }
 
 void validateContactLaw(const ContactLaw& law, const std::string& owner) {
-  auto show = [](double x) {
-    std::ostringstream out;
-    out << x;
-    return out.str();
-  };
+  const auto show = formatValue;
   if (!(std::isfinite(law.friction) && law.friction >= 0.0))
     throw InputError(owner + ": friction must be >= 0, got " + show(law.friction));
   if (!(std::isfinite(law.restitution) && law.restitution >= 0.0 && law.restitution <= 1.0))

@@ -1,4 +1,5 @@
 #pragma once
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -10,5 +11,12 @@ class InputError : public std::runtime_error {
  public:
   explicit InputError(const std::string& message) : std::runtime_error(message) {}
 };
+
+// A number as messages quote it (default stream format: 0.3, -1e-07).
+inline std::string formatValue(double x) {
+  std::ostringstream out;
+  out << x;
+  return out.str();
+}
 
 }  // namespace sweep

@@ -36,11 +36,7 @@ const char* frictionThresholdName(FrictionThreshold threshold) {
 }
 
 void NlgsSettings::validate(const std::string& owner) const {
-  auto show = [](double x) {
-    std::ostringstream out;
-    out << x;
-    return out.str();
-  };
+  const auto show = formatValue;
   if (max_iterations < 1)
     throw InputError(owner + ".max_iterations must be >= 1, got " + std::to_string(max_iterations));
   if (!(std::isfinite(tolerance) && tolerance > 0.0))

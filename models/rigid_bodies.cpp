@@ -7,15 +7,10 @@
 namespace sweep {
 
 namespace {
-std::string format(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
 
 void requirePositive(const std::string& what, double value) {
   if (!(value > 0.0) || !std::isfinite(value))
-    throw InputError("rigid body: " + what + " must be > 0, got " + format(value));
+    throw InputError("rigid body: " + what + " must be > 0, got " + formatValue(value));
 }
 }  // namespace
 

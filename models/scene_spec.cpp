@@ -13,12 +13,6 @@ namespace sweep {
 
 namespace {
 
-std::string format(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
-
 std::string owner(const BodySpec& body) {
   return "body '" + body.name + "'";
 }
@@ -142,12 +136,13 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
                      "; give both mass and inertia");
   }
   if (!(inertia.mass > 0.0) || !std::isfinite(inertia.mass))
-    throw InputError(owner(body) + ": mass must be > 0, got " + format(inertia.mass) +
+    throw InputError(owner(body) + ": mass must be > 0, got " + formatValue(inertia.mass) +
                      (body.mass ? "" : " (density x size)"));
   const Vector3 moments = inertia.inertia_com.diagonal();
   if (!(moments.minCoeff() > 0.0) || !moments.allFinite())
-    throw InputError(owner(body) + ": inertia must be > 0 and finite, got [" + format(moments.x()) +
-                     ", " + format(moments.y()) + ", " + format(moments.z()) + "]");
+    throw InputError(owner(body) + ": inertia must be > 0 and finite, got [" +
+                     formatValue(moments.x()) + ", " + formatValue(moments.y()) + ", " +
+                     formatValue(moments.z()) + "]");
   return inertia;
 }
 

@@ -14,12 +14,6 @@ namespace sweep {
 
 namespace {
 
-std::string exact(double x) {
-  std::ostringstream s;
-  s << std::setprecision(17) << x;
-  return s.str();
-}
-
 // "1e-4" rather than "0.0001" in folder names
 std::string shortNumber(double x) {
   std::ostringstream s;
@@ -49,7 +43,7 @@ int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& opti
   if (options.steps.empty()) throw InputError("--dt: give at least one time step");
   for (double h : options.steps)
     if (!(h > 0.0) || !std::isfinite(h))
-      throw InputError("--dt: every step must be > 0, got " + exact(h));
+      throw InputError("--dt: every step must be > 0, got " + exactNumber(h));
   if (options.repeat < 1) throw InputError("--repeat: must be >= 1");
   std::vector<Scheme> schemes;
   for (const std::string& name : options.schemes) schemes.push_back(schemeFromName(name));
@@ -79,15 +73,17 @@ int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& opti
         if (r == 0 || s.cpu_seconds < best.cpu_seconds) best = s;
       }
       if (interrupted) break;
-      csv << best.scheme << ',' << exact(h) << ',' << best.steps << ',' << exact(best.cpu_seconds)
-          << ',' << exact(best.penetration_cumulative) << ','
-          << exact(best.penetration_time_integral) << ',' << exact(best.penetration_peak) << ','
-          << exact(best.iterations.mean) << ',' << exact(best.iterations.p95) << ','
-          << exact(best.iterations.max) << ','
-          << exact(static_cast<double>(best.cap_hit_steps) / static_cast<double>(best.steps)) << ','
-          << exact(best.iterations_stage1.p95) << ',' << exact(best.iterations_stage2.p95) << ','
-          << exact(best.updates > 0 ? 1e9 * best.solve_seconds / static_cast<double>(best.updates)
-                                    : 0.0)
+      csv << best.scheme << ',' << exactNumber(h) << ',' << best.steps << ','
+          << exactNumber(best.cpu_seconds) << ',' << exactNumber(best.penetration_cumulative) << ','
+          << exactNumber(best.penetration_time_integral) << ','
+          << exactNumber(best.penetration_peak) << ',' << exactNumber(best.iterations.mean) << ','
+          << exactNumber(best.iterations.p95) << ',' << exactNumber(best.iterations.max) << ','
+          << exactNumber(static_cast<double>(best.cap_hit_steps) / static_cast<double>(best.steps))
+          << ',' << exactNumber(best.iterations_stage1.p95) << ','
+          << exactNumber(best.iterations_stage2.p95) << ','
+          << exactNumber(best.updates > 0
+                             ? 1e9 * best.solve_seconds / static_cast<double>(best.updates)
+                             : 0.0)
           << '\n';
       if (options.log != nullptr)
         *options.log << std::setprecision(4) << best.scheme << " h = " << h << ": cpu "

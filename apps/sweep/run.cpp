@@ -37,24 +37,19 @@ std::string formatDuration(double seconds) {
   return s.str();
 }
 
-// Shortest text that reads back to the same double: the CSV and JSON are exact records.
-std::string exact(double x) {
-  std::ostringstream s;
-  s << std::setprecision(17) << x;
-  return s.str();
-}
-
 const char* kStatsHeader =
     "step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,pen_sum,"
     "pen_count,kinetic,potential,work_normal,work_tangent,t_detect,t_assemble,t_solve,t_update\n";
 
 void appendStatsRow(std::ostream& out, const StepStats& s) {
-  out << s.step << ',' << exact(s.t) << ',' << s.candidates << ',' << s.active << ','
-      << s.iterations_stage1 << ',' << s.iterations_stage2 << ',' << exact(s.residual) << ','
-      << (s.cap_hit ? 1 : 0) << ',' << exact(s.penetration_max) << ',' << exact(s.penetration_sum)
-      << ',' << s.penetration_count << ',' << exact(s.kinetic) << ',' << exact(s.potential) << ','
-      << exact(s.work_normal) << ',' << exact(s.work_tangent) << ',' << exact(s.t_detect) << ','
-      << exact(s.t_assemble) << ',' << exact(s.t_solve) << ',' << exact(s.t_update) << '\n';
+  out << s.step << ',' << exactNumber(s.t) << ',' << s.candidates << ',' << s.active << ','
+      << s.iterations_stage1 << ',' << s.iterations_stage2 << ',' << exactNumber(s.residual) << ','
+      << (s.cap_hit ? 1 : 0) << ',' << exactNumber(s.penetration_max) << ','
+      << exactNumber(s.penetration_sum) << ',' << s.penetration_count << ','
+      << exactNumber(s.kinetic) << ',' << exactNumber(s.potential) << ','
+      << exactNumber(s.work_normal) << ',' << exactNumber(s.work_tangent) << ','
+      << exactNumber(s.t_detect) << ',' << exactNumber(s.t_assemble) << ','
+      << exactNumber(s.t_solve) << ',' << exactNumber(s.t_update) << '\n';
 }
 
 class Progress {
@@ -98,6 +93,12 @@ class Progress {
 
 }  // namespace
 
+std::string exactNumber(double x) {
+  std::ostringstream s;
+  s << std::setprecision(17) << x;
+  return s.str();
+}
+
 Distribution distributionOf(std::vector<int> values) {
   Distribution d;
   if (values.empty()) return d;
@@ -133,11 +134,11 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
   settings.scheme.validate();
   if (!(settings.t_end > 0.0) || !std::isfinite(settings.t_end))
-    throw InputError("t_end must be > 0, got " + exact(settings.t_end));
+    throw InputError("t_end must be > 0, got " + exactNumber(settings.t_end));
   const double h = settings.scheme.h;
   const long steps = std::max(1L, std::lround(settings.t_end / h));
   if (steps > 2000000000L)
-    throw InputError("t_end / dt = " + exact(settings.t_end / h) + " steps is too many");
+    throw InputError("t_end / dt = " + exactNumber(settings.t_end / h) + " steps is too many");
 
   const bool files = !options.out_dir.empty();
   if (files) {
@@ -183,7 +184,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   for (long k = 0; k < steps; ++k) {
     const StepStats& s = stepper.step();
     if (!stepper.q().allFinite() || !stepper.v().allFinite())
-      throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exact(s.t) +
+      throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exactNumber(s.t) +
                                "): the state is no longer finite");
     summary.steps = s.step;
     summary.t_reached = s.t;
@@ -236,36 +237,38 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
 
 void writeSummaryJson(const RunSummary& s, const std::string& path) {
   auto distribution = [](const Distribution& d) {
-    return "{\"mean\": " + exact(d.mean) + ", \"p50\": " + exact(d.p50) +
-           ", \"p95\": " + exact(d.p95) + ", \"p99\": " + exact(d.p99) +
-           ", \"max\": " + exact(d.max) + "}";
+    return "{\"mean\": " + exactNumber(d.mean) + ", \"p50\": " + exactNumber(d.p50) +
+           ", \"p95\": " + exactNumber(d.p95) + ", \"p99\": " + exactNumber(d.p99) +
+           ", \"max\": " + exactNumber(d.max) + "}";
   };
   std::ostringstream j;
   j << "{\n"
     << "  \"scheme\": \"" << s.scheme << "\",\n"
-    << "  \"dt\": " << exact(s.dt) << ",\n"
-    << "  \"t_end\": " << exact(s.t_end) << ",\n"
-    << "  \"t_reached\": " << exact(s.t_reached) << ",\n"
+    << "  \"dt\": " << exactNumber(s.dt) << ",\n"
+    << "  \"t_end\": " << exactNumber(s.t_end) << ",\n"
+    << "  \"t_reached\": " << exactNumber(s.t_reached) << ",\n"
     << "  \"steps\": " << s.steps << ",\n"
     << "  \"interrupted\": " << (s.interrupted ? "true" : "false") << ",\n"
-    << "  \"cpu_seconds\": " << exact(s.cpu_seconds) << ",\n"
-    << "  \"wall_seconds\": " << exact(s.wall_seconds) << ",\n"
-    << "  \"penetration\": {\"cumulative\": " << exact(s.penetration_cumulative)
-    << ", \"time_integral\": " << exact(s.penetration_time_integral)
-    << ", \"peak\": " << exact(s.penetration_peak) << "},\n"
-    << "  \"iterations\": {\"mean\": " << exact(s.iterations.mean)
-    << ", \"p50\": " << exact(s.iterations.p50) << ", \"p95\": " << exact(s.iterations.p95)
-    << ", \"p99\": " << exact(s.iterations.p99) << ", \"max\": " << exact(s.iterations.max)
-    << ", \"cap_hit_steps\": " << s.cap_hit_steps
+    << "  \"cpu_seconds\": " << exactNumber(s.cpu_seconds) << ",\n"
+    << "  \"wall_seconds\": " << exactNumber(s.wall_seconds) << ",\n"
+    << "  \"penetration\": {\"cumulative\": " << exactNumber(s.penetration_cumulative)
+    << ", \"time_integral\": " << exactNumber(s.penetration_time_integral)
+    << ", \"peak\": " << exactNumber(s.penetration_peak) << "},\n"
+    << "  \"iterations\": {\"mean\": " << exactNumber(s.iterations.mean)
+    << ", \"p50\": " << exactNumber(s.iterations.p50)
+    << ", \"p95\": " << exactNumber(s.iterations.p95)
+    << ", \"p99\": " << exactNumber(s.iterations.p99)
+    << ", \"max\": " << exactNumber(s.iterations.max) << ", \"cap_hit_steps\": " << s.cap_hit_steps
     << ",\n                 \"stage1\": " << distribution(s.iterations_stage1)
     << ",\n                 \"stage2\": " << distribution(s.iterations_stage2) << "},\n"
-    << "  \"contacts\": {\"mean_active\": " << exact(s.mean_active)
+    << "  \"contacts\": {\"mean_active\": " << exactNumber(s.mean_active)
     << ", \"max_active\": " << s.max_active << "},\n"
     << "  \"solver\": {\"updates\": " << s.updates
-    << ", \"solve_seconds\": " << exact(s.solve_seconds) << ", \"ns_per_update\": "
-    << exact(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0) << "},\n"
-    << "  \"energy\": {\"initial\": " << exact(s.energy_initial)
-    << ", \"final\": " << exact(s.energy_final) << "}\n"
+    << ", \"solve_seconds\": " << exactNumber(s.solve_seconds) << ", \"ns_per_update\": "
+    << exactNumber(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0)
+    << "},\n"
+    << "  \"energy\": {\"initial\": " << exactNumber(s.energy_initial)
+    << ", \"final\": " << exactNumber(s.energy_final) << "}\n"
     << "}\n";
   writeFileAtomically(path, j.str());
 }

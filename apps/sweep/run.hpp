@@ -52,6 +52,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
 // summary.json, written atomically
 void writeSummaryJson(const RunSummary& summary, const std::string& path);
 
+// Shortest text that reads back to the same double (17 significant digits).
+std::string exactNumber(double x);
+
 // Writes `text` to `path` through a temporary file and a rename.
 void writeFileAtomically(const std::string& path, const std::string& text);
 
