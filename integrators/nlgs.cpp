@@ -443,7 +443,51 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   if (!any) return stats;
 
   int count = 0;  // rows of the current island, in ws.order
+  const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
+  // The update below on the packed 2D rows: one tangent, so the local problem is a clamp
+  auto packedSweep = [&](double& change2, double& size2) {
+    const ContactProblem::PackedEntry2d* h = p.h2d.data();
+    const ContactProblem::PackedEntry2d* minv = p.minv2d.data();
+    const double omega = settings.relaxation;
+    for (int k = 0; k < count; ++k) {
+      const int c = ws.order[k];
+      const double radius = ws.threshold[c];
+      if (radius <= 0.0 && delta[c] == 0.0) continue;
+      const ContactProblem::PackedRow2d& r = p.rows2d[c];
+      Vector2 u = r.known;
+      for (int e = r.begin; e < r.end; ++e) u += Vector2(h[e].normal, h[e].tangent) * v[h[e].dof];
+      const double coupling = ws.coupling[c].x();
+      double uT = u.y() - ws.offset[c].x();
+      double A = ws.schur[c](0, 0);
+      double drift = 0.0;
+      if (options.tangents == TangentMode::Global) {
+        drift = u.x() - ws.held_normal[c];
+        uT -= coupling * drift;
+      } else if (options.tangents == TangentMode::Local) {
+        uT -= coupling * u.x();
+      } else {
+        A = r.W(1, 1);
+      }
+      const double lambda = lambda_T[c].x();
+      const double dl = omega * (std::clamp(lambda - uT / A, -radius, radius) - lambda);
+      double dN = options.tangents == TangentMode::Local ? -coupling * dl : 0.0;
+      if (options.tangents == TangentMode::Global && radius > 0.0) {
+        const double dd = -(drift + r.W(0, 1) * dl) * r.normal_inverse;
+        dN += dd;
+        delta[c] += dd;
+      }
+      for (int e = r.minv_begin; e < r.minv_end; ++e)
+        v[minv[e].dof] += minv[e].normal * dN + minv[e].tangent * dl;
+      lambda_T[c].x() = lambda + dl;
+      change2 += dN * dN + dl * dl;
+      size2 += (lambda + dl) * (lambda + dl) + delta[c] * delta[c];
+    }
+  };
   auto sweep = [&](bool residual_only, double& change2, double& size2) {
+    if (packed && !residual_only) {
+      packedSweep(change2, size2);
+      return 0.0;
+    }
     double f2 = 0.0, scale2 = 0.0;
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];

@@ -242,3 +242,78 @@ TEST(ContactIslands, SameAnswerAsOneSolve) {
 
 }  // namespace
 }  // namespace sweep
+
+namespace sweep {
+namespace {
+
+// The packed 2D rows are a faster layout of the same arithmetic: every stage, in every
+// tangent mode, gives what the generic rows give, to round-off.
+class PackedRows : public ::testing::TestWithParam<TangentMode> {};
+
+TEST_P(PackedRows, SameAnswerAsTheGenericRows) {
+  GranularBoxParameters parameters;
+  parameters.count = 120;
+  const Scene scene = granularBox(parameters);
+  SchemeSettings settings;
+  settings.h = 2e-4;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 400; ++k) stepper.step();
+
+  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Pos);
+  const ContactProblem& packed = step.problem;
+  ASSERT_EQ(static_cast<int>(packed.rows2d.size()), packed.size());
+  ASSERT_GT(packed.size(), 100);
+  ContactProblem generic = packed;
+  generic.rows2d.clear();
+
+  NlgsSettings solver;
+  solver.max_iterations = 200;  // both stop at the same sweep: the paths are compared, not
+                                // the converged answers
+  FrictionStageOptions options;
+  options.tangents = GetParam();
+  NlgsWorkspace ws;
+  ws.prepare(packed.size(), scene.model.nv);
+  const double scale = step.v_free.norm();
+
+  std::vector<Vector3> P1(packed.size(), Vector3::Zero()), P2 = P1;
+  VectorX v1 = step.v_free, v2 = step.v_free;
+  const NlgsStats a1 = solveCoulombNlgs(packed, solver, P1, v1, ws);
+  const NlgsStats a2 = solveCoulombNlgs(generic, solver, P2, v2, ws);
+  EXPECT_EQ(a1.iterations, a2.iterations);
+  EXPECT_LT((v1 - v2).norm(), 1e-12 * scale);
+
+  std::vector<double> lambda1(packed.size(), 0.0), lambda2 = lambda1;
+  v1 = v2 = step.v_free;
+  const NlgsStats n1 = solveNormalStage(packed, solver, lambda1, v1, ws);
+  const NlgsStats n2 = solveNormalStage(generic, solver, lambda2, v2, ws);
+  EXPECT_EQ(n1.iterations, n2.iterations);
+  EXPECT_LT((v1 - v2).norm(), 1e-12 * scale);
+
+  std::vector<double> delta1(packed.size(), 0.0), delta2 = delta1;
+  std::vector<Vector2> tangent1(packed.size(), Vector2::Zero()), tangent2 = tangent1;
+  const VectorX after_normal = v1;
+  v2 = v1;
+  const NlgsStats f1 =
+      solveFrictionStage(packed, solver, options, lambda1, delta1, tangent1, v1, ws);
+  const NlgsStats f2 =
+      solveFrictionStage(generic, solver, options, lambda1, delta2, tangent2, v2, ws);
+  EXPECT_GT(f1.iterations, 1);
+  EXPECT_EQ(f1.iterations, f2.iterations);
+  EXPECT_GT((v1 - after_normal).norm(), 1e-6 * scale);  // friction did act
+  EXPECT_LT((v1 - v2).norm(), 1e-12 * scale);
+  for (int c = 0; c < packed.size(); ++c) {
+    EXPECT_NEAR(tangent1[c].x(), tangent2[c].x(), 1e-12 * (1.0 + std::abs(tangent2[c].x())));
+    EXPECT_NEAR(delta1[c], delta2[c], 1e-12 * (1.0 + std::abs(delta2[c])));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedRows,
+                         ::testing::Values(TangentMode::Global, TangentMode::Local,
+                                           TangentMode::None),
+                         [](const ::testing::TestParamInfo<TangentMode>& mode) {
+                           return std::string(tangentModeName(mode.param));
+                         });
+
+}  // namespace
+}  // namespace sweep
