@@ -40,6 +40,8 @@ def main():
     parser.add_argument("--schemes", default="catching-up")
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--dt", type=float, default=1e-4)
+    parser.add_argument("--reuse", action="store_true",
+                        help="analyse the runs already in OUT, skip the missing ones")
     parser.add_argument("extra", nargs="*", help="options passed to every sweep run")
     args = parser.parse_args()
 
@@ -54,8 +56,12 @@ def main():
                        "--set", f"generators[0].count={count}",
                        "--set", f"generators[0].orifice={orifice!r}",
                        "--set", "output.vtk_interval=0"] + args.extra
-            print(" ".join(command), flush=True)
-            subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+            if args.reuse:
+                if not os.path.exists(os.path.join(run_dir, "summary.json")):
+                    continue
+            else:
+                print(" ".join(command), flush=True)
+                subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
             with open(os.path.join(run_dir, "summary.json")) as f:
                 s = json.load(f)
             steps = s["steps"]

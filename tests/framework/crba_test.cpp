@@ -88,6 +88,24 @@ TEST(Crba, ConstantBlocksAreNeverRebuilt) {
   EXPECT_EQ(disk(0, 2), 0.0);
 }
 
+// The skip changes nothing: with every block forced to be rebuilt, CRBA gives the blocks
+// the constant ones hold, at any configuration.
+TEST(Crba, SkippingConstantBlocksGivesTheRebuiltMatrix) {
+  const Model model = test::mixedBodies();
+  Model rebuilt = model;
+  for (Component& component : rebuilt.components) component.constant_mass = false;
+  Data skipping(model), rebuilding(rebuilt);
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 5; ++trial) {
+    const VectorX q = test::randomConfiguration(model, rng);
+    crba(model, skipping, q);
+    crba(rebuilt, rebuilding, q);
+    const MatrixX a = denseMassMatrix(model, skipping);
+    const MatrixX b = denseMassMatrix(rebuilt, rebuilding);
+    EXPECT_LT((a - b).norm(), 1e-12 * b.norm());
+  }
+}
+
 TEST(Crba, IndependentBodiesGiveBlockDiagonalMatrix) {
   const Model model = test::mixedBodies();
   Data data(model);
