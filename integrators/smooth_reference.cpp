@@ -44,6 +44,10 @@ struct SmoothReferenceIntegrator::Cvode {
                                                               N_VGetArrayPointer(ydot));
     return 0;
   }
+  static int roots(sunrealtype t, N_Vector y, sunrealtype* g, void* user) {
+    static_cast<SmoothReferenceIntegrator*>(user)->eventValues(t, N_VGetArrayPointer(y), g);
+    return 0;
+  }
 };
 
 namespace {
@@ -94,6 +98,23 @@ void SmoothReferenceIntegrator::derivative(double t, const double* y, double* yd
   Eigen::Map<VectorX>(ydot + model_.nq, model_.nv) = data_.ddq;
 }
 
+void SmoothReferenceIntegrator::setEvents(int count, EventFunction events) {
+  if (cvode_->initialized) throw std::logic_error("smooth reference: setEvents() after reset()");
+  if (count < 0 || (count > 0 && !events))
+    throw InputError("smooth reference: event count must be >= 0, with a function");
+  event_count_ = count;
+  events_ = std::move(events);
+  roots_.assign(count, 0);
+}
+
+void SmoothReferenceIntegrator::eventValues(double t, const double* y, double* g) {
+  q_ = Eigen::Map<const VectorX>(y, model_.nq);
+  v_ = Eigen::Map<const VectorX>(y + model_.nq, model_.nv);
+  event_values_.resize(event_count_);
+  events_(t, q_, v_, event_values_);
+  Eigen::Map<VectorX>(g, event_count_) = event_values_;
+}
+
 void SmoothReferenceIntegrator::reset(double t0, const VectorX& q0, const VectorX& v0) {
   if (q0.size() != model_.nq || v0.size() != model_.nv)
     throw InputError("smooth reference: state has the wrong size");
@@ -109,6 +130,11 @@ void SmoothReferenceIntegrator::reset(double t0, const VectorX& q0, const Vector
   if (!cvode_->initialized) {
     check(CVodeInit(mem, &Cvode::rhs, t0, cvode_->y), "CVodeInit");
     check(CVodeSetNonlinearSolver(mem, cvode_->corrector), "CVodeSetNonlinearSolver");
+    if (event_count_ > 0) {
+      check(CVodeRootInit(mem, event_count_, &Cvode::roots), "CVodeRootInit");
+      std::vector<int> downward(event_count_, -1);
+      check(CVodeSetRootDirection(mem, downward.data()), "CVodeSetRootDirection");
+    }
     cvode_->initialized = true;
   } else {
     check(CVodeReInit(mem, t0, cvode_->y), "CVodeReInit");
@@ -120,15 +146,19 @@ void SmoothReferenceIntegrator::reset(double t0, const VectorX& q0, const Vector
   check(CVodeSetMaxOrd(mem, settings_.max_order), "CVodeSetMaxOrd");
 }
 
-void SmoothReferenceIntegrator::advanceTo(double t_out) {
+bool SmoothReferenceIntegrator::advanceTo(double t_out) {
   if (!cvode_->initialized) throw std::logic_error("smooth reference: reset() before advanceTo()");
   double t_reached = t_;
-  check(CVode(cvode_->memory, t_out, cvode_->y, &t_reached, CV_NORMAL), "CVode");
+  const int flag = CVode(cvode_->memory, t_out, cvode_->y, &t_reached, CV_NORMAL);
+  check(flag, "CVode");
+  const bool at_root = flag == CV_ROOT_RETURN;
+  if (at_root) check(CVodeGetRootInfo(cvode_->memory, roots_.data()), "CVodeGetRootInfo");
   const double* y = N_VGetArrayPointer(cvode_->y);
   t_ = t_reached;
   q_ = Eigen::Map<const VectorX>(y, model_.nq);
   v_ = Eigen::Map<const VectorX>(y + model_.nq, model_.nv);
   normalizeConfiguration(model_, q_);
+  return at_root;
 }
 
 }  // namespace sweep

@@ -1,0 +1,103 @@
+#include "apps/sweep/validation.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "integrators/event_driven.hpp"
+
+namespace sweep {
+
+namespace {
+
+UnilateralConstraint bouncingBallFloor(const Scene& scene,
+                                       const BouncingBallParameters& parameters) {
+  UnilateralConstraint floor;
+  const double radius = parameters.radius;
+  floor.gap = [radius](const VectorX& q) { return q[2] - radius; };
+  const Eigen::Index nv = scene.model.nv;
+  floor.normal = [nv](const VectorX&) {
+    VectorX w = VectorX::Zero(nv);
+    w[2] = 1.0;
+    return w;
+  };
+  floor.restitution = parameters.restitution;
+  return floor;
+}
+
+// sample count of t_end / interval, checked to be a whole number
+long wholeRatio(double a, double b, const char* what) {
+  const double ratio = a / b;
+  const long n = std::lround(ratio);
+  if (n < 1 || std::abs(ratio - static_cast<double>(n)) > 1e-9 * ratio)
+    throw std::invalid_argument(std::string(what) + " is not a whole multiple");
+  return n;
+}
+
+}  // namespace
+
+double fittedOrder(const std::vector<ConvergencePoint>& points) {
+  double mx = 0.0, my = 0.0;
+  for (const ConvergencePoint& p : points) {
+    mx += std::log2(p.h);
+    my += std::log2(p.error);
+  }
+  mx /= static_cast<double>(points.size());
+  my /= static_cast<double>(points.size());
+  double sxy = 0.0, sxx = 0.0;
+  for (const ConvergencePoint& p : points) {
+    sxy += (std::log2(p.h) - mx) * (std::log2(p.error) - my);
+    sxx += (std::log2(p.h) - mx) * (std::log2(p.h) - mx);
+  }
+  return sxy / sxx;
+}
+
+std::vector<double> bouncingBallReferenceImpacts(const BouncingBallParameters& parameters,
+                                                 double t_end) {
+  const Scene scene = bouncingBall(parameters);
+  EventDrivenReference reference(scene.model, {bouncingBallFloor(scene, parameters)});
+  reference.reset(0.0, scene.q0, scene.v0);
+  reference.advanceTo(t_end);
+  std::vector<double> times;
+  for (const Impact& impact : reference.impacts()) times.push_back(impact.t);
+  return times;
+}
+
+std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps,
+                                                      double t_end, double sample_interval) {
+  const Scene scene = bouncingBall(parameters);
+  const long samples = wholeRatio(t_end, sample_interval, "t_end / sample_interval");
+  std::vector<double> reference_height(samples + 1);
+  {
+    EventDrivenReference reference(scene.model, {bouncingBallFloor(scene, parameters)});
+    reference.reset(0.0, scene.q0, scene.v0);
+    for (long j = 0; j <= samples; ++j) {
+      reference.advanceTo(static_cast<double>(j) * sample_interval);
+      reference_height[j] = reference.q()[2];
+    }
+  }
+  std::vector<ConvergencePoint> points;
+  for (double h : steps) {
+    const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
+    SchemeSettings settings;
+    settings.scheme = scheme;
+    settings.h = h;
+    settings.coulomb.tolerance = settings.normal_stage.tolerance = 1e-12;
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    double sum2 = 0.0;
+    for (long j = 1; j <= samples; ++j) {
+      for (long k = 0; k < per_sample; ++k) stepper.step();
+      const double d = stepper.q()[2] - reference_height[j];
+      sum2 += d * d;
+    }
+    const double error = std::sqrt(sum2 / static_cast<double>(samples));
+    ConvergencePoint point{h, error, 0.0};
+    if (!points.empty()) point.order = std::log2(points.back().error / error);
+    points.push_back(point);
+  }
+  return points;
+}
+
+}  // namespace sweep

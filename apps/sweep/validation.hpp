@@ -1,0 +1,35 @@
+#pragma once
+// Convergence studies of the validation cases against their references (issue #7,
+// docs/validation.md): the error of each scheme's trajectory as h is halved, and the
+// observed order. Shared by the tests and bench/validation_convergence.
+#include <vector>
+
+#include "integrators/time_stepper.hpp"
+#include "models/archetypes.hpp"
+
+namespace sweep {
+
+struct ConvergencePoint {
+  double h = 0.0;
+  double error = 0.0;  // the case's error measure at this h
+  double order = 0.0;  // log2(error(2h) / error(h)); 0 for the coarsest h
+};
+
+// Least-squares slope of log2(error) against log2(h): the observed order over all points.
+// The local orders of an impact problem scatter (where an impact falls inside a step
+// changes the error by up to a step's worth), so the fit is the number to judge.
+double fittedOrder(const std::vector<ConvergencePoint>& points);
+
+// V1: the RMS of z_h(t) - z_ref(t), the ball's centre height, over the sample times
+// 0 < t = j * sample_interval <= t_end, against the event-driven CVODE reference (root finding on
+// the gap, Newton's law at each impact). Every h must divide sample_interval.
+std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps,
+                                                      double t_end, double sample_interval);
+
+// The event-driven reference's impact times of V1 up to t_end.
+std::vector<double> bouncingBallReferenceImpacts(const BouncingBallParameters& parameters,
+                                                 double t_end);
+
+}  // namespace sweep

@@ -1,0 +1,37 @@
+#include "models/archetypes.hpp"
+
+#include <cmath>
+
+#include "models/rigid_bodies.hpp"
+
+namespace sweep {
+
+Scene bouncingBall(const BouncingBallParameters& p) {
+  ModelBuilder mb("bouncing ball");
+  addFreeBody(mb, "ball", solidSphereInertia(p.mass, p.radius));
+  mb.setGravity(Vector3(0.0, 0.0, -p.gravity));
+  Scene scene;
+  scene.model = mb.build();
+  ContactModelBuilder cb(scene.model);
+  cb.materials().setDefaultLaw({0.0, p.restitution});
+  cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(p.radius));
+  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+  scene.cmodel = cb.build();
+  scene.q0 = scene.model.neutralConfiguration();
+  scene.q0[2] = p.drop + p.radius;
+  scene.v0 = VectorX::Zero(scene.model.nv);
+  return scene;
+}
+
+std::vector<double> bouncingBallImpactTimes(const BouncingBallParameters& p, int count) {
+  const double t1 = std::sqrt(2.0 * p.drop / p.gravity), v1 = p.gravity * t1;
+  std::vector<double> times;
+  double sum = 0.0;
+  for (int n = 0; n < count; ++n) {
+    if (n > 0) sum += std::pow(p.restitution, n);
+    times.push_back(t1 + 2.0 * v1 / p.gravity * sum);
+  }
+  return times;
+}
+
+}  // namespace sweep
