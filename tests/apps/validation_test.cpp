@@ -37,9 +37,9 @@ TEST(BouncingBallReference, ImpactsAccumulateAtTheZenoTime) {
 // halving h halves the error. Seven step sizes from the Siconos h = 0.005 down to h / 64;
 // the fitted order must lie within 0.3 of 1 (the local orders scatter between -0.3 and 1.5
 // because of where the impacts fall inside the steps; the fit over six halvings is ~0.9).
-class BouncingBallConvergence : public ::testing::TestWithParam<Scheme> {};
+class Archetypes : public ::testing::TestWithParam<Scheme> {};
 
-TEST_P(BouncingBallConvergence, FirstOrderAgainstTheEventDrivenReference) {
+TEST_P(Archetypes, BouncingBallFirstOrderAgainstTheEventDrivenReference) {
   std::vector<double> steps;
   for (int k = 0; k < 7; ++k) steps.push_back(5e-3 / std::pow(2.0, k));
   const std::vector<ConvergencePoint> points =
@@ -58,7 +58,7 @@ TEST_P(BouncingBallConvergence, FirstOrderAgainstTheEventDrivenReference) {
 // midpoint), and the ball ends at rest on the floor. At rest it keeps the penetration of its
 // last bounce (the VEL law does not push it out): below v h / 2 for a bounce too short to
 // leave the floor for a whole step, v < g h / 2 = 0.025 m/s, i.e. 6e-5 m.
-TEST_P(BouncingBallConvergence, ExampleSceneHitsTheSiconosImpactSteps) {
+TEST_P(Archetypes, BouncingBallExampleHitsTheSiconosImpactSteps) {
   SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/bouncing_ball.yaml");
   file.run.scheme.scheme = GetParam();
   const Scene scene = buildSceneFile(file);
@@ -80,7 +80,60 @@ TEST_P(BouncingBallConvergence, ExampleSceneHitsTheSiconosImpactSteps) {
   EXPECT_GT(stepper.q()[2], 0.1 - 0.5 * 0.025 * h);
 }
 
-INSTANTIATE_TEST_SUITE_P(Schemes, BouncingBallConvergence,
+// V4 from examples/archetypes/disk_on_incline.yaml: rolling at 2/3 g sin a with mu = 0.25,
+// sliding at g (sin a - mu cos a) with mu = 0.1 (threshold tan(a) / 3 = 0.2). The disk
+// starts exactly tangent, so the first step's midpoint gap is not negative and it falls
+// freely for one step; the contact takes over in the second. The acceleration is measured
+// over the 400 steps after those two; both laws are exact for the discrete scheme (constant
+// acceleration), so 1e-9 is round-off.
+TEST_P(Archetypes, DiskOnInclineExampleRollsOrSlides) {
+  const double g = 9.81, sin_a = 0.6 / std::sqrt(1.36), cos_a = 1.0 / std::sqrt(1.36);
+  const Vector3 down(-cos_a, -sin_a, 0.0);
+  for (double mu : {0.25, 0.1}) {
+    const SceneFile file =
+        loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/disk_on_incline.yaml",
+                      {"contact.friction=" + std::to_string(mu)});
+    const Scene scene = buildSceneFile(file);
+    const double h = file.run.scheme.h;
+    SchemeSettings settings = file.run.scheme;
+    settings.scheme = GetParam();
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    stepper.step();
+    stepper.step();
+    const double v0 = stepper.v().head<3>().dot(down);
+    for (int k = 0; k < 400; ++k) stepper.step();
+    const double acceleration = (stepper.v().head<3>().dot(down) - v0) / (400 * h);
+    const double expected = mu >= 0.2 ? 2.0 / 3.0 * g * sin_a : g * (sin_a - mu * cos_a);
+    EXPECT_NEAR(acceleration, expected, 1e-9) << "mu " << mu;
+  }
+}
+
+// V6 from examples/archetypes/newtons_cradle.yaml: touching balls, one step, Jean-Moreau's
+// simultaneous law gives (-1/3, 2/3, 2/3); spaced 0.05 apart, two sequential impacts give
+// (0, 0, 1), in both schemes (1e-10: the solver tolerance is 1e-14, relative).
+TEST_P(Archetypes, NewtonsCradleExample) {
+  const std::string path = SWEEP_SOURCE_DIR "/examples/archetypes/newtons_cradle.yaml";
+  auto velocities = [&](const std::vector<std::string>& overrides, int steps) {
+    const SceneFile file = loadSceneFile(path, overrides);
+    const Scene scene = buildSceneFile(file);
+    SchemeSettings settings = file.run.scheme;
+    settings.scheme = GetParam();
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    for (int k = 0; k < steps; ++k) stepper.step();
+    return Vector3(stepper.v()[0], stepper.v()[3], stepper.v()[6]);
+  };
+  if (GetParam() == Scheme::MoreauJean) {
+    const Vector3 simultaneous = velocities({}, 1);
+    EXPECT_LT((simultaneous - Vector3(-1.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0)).norm(), 1e-10);
+  }
+  const Vector3 sequential =
+      velocities({"bodies[1].position=[1.05,0]", "bodies[2].position=[2.1,0]"}, 200);
+  EXPECT_LT((sequential - Vector3(0.0, 0.0, 1.0)).norm(), 1e-10);
+}
+
+INSTANTIATE_TEST_SUITE_P(Schemes, Archetypes,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const ::testing::TestParamInfo<Scheme>& scheme) {
                            return std::string(scheme.param == Scheme::MoreauJean ? "MoreauJean"
