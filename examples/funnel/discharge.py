@@ -64,8 +64,9 @@ def steady_rate(curve):
             window[0][0], window[-1][0])
 
 
-def fit_beverloo(D, W, d):
-    """Best (k, b, A) of W = A (D - k d)^b over k in [0, 3] (step 0.005)."""
+def fit_beverloo(D, W, d, exponent=None):
+    """Best (k, b, A, sse) of W = A (D - k d)^b over k in [0, 3] (step 0.005); b is fitted,
+    or held at `exponent`."""
     best = None
     for i in range(0, 601):
         k = 0.005 * i
@@ -73,7 +74,7 @@ def fit_beverloo(D, W, d):
             break
         x = [math.log(Di - k * d) for Di in D]
         y = [math.log(Wi) for Wi in W]
-        b = slope(x, y)
+        b = slope(x, y) if exponent is None else exponent
         a = sum(y) / len(y) - b * sum(x) / len(x)
         sse = sum((yi - (a + b * xi)) ** 2 for xi, yi in zip(x, y))
         if best is None or sse < best[3]:
@@ -145,6 +146,15 @@ def main():
                       halves_ratio=[r["rate_second_half"] / r["rate_first_half"] for r in good])
         print(f"Beverloo fit: exponent {b:.3f} (target 1.5 +- 0.2), k {k:.3f} (target "
               f"[0.5, 2.5]), C {C:.3f} (with the solid density), log rms {result['log_rms']:.3f}")
+        # the same data with the exponent held at 3/2: how much worse the fit is says how
+        # well the data pin the exponent down
+        k15, _, A15, sse15 = fit_beverloo([r["D"] for r in good], [r["rate"] for r in good], d,
+                                          exponent=1.5)
+        result.update(k_at_exponent_1_5=k15,
+                      C_at_exponent_1_5=A15 / (args.density * math.sqrt(args.gravity)),
+                      log_rms_at_exponent_1_5=math.sqrt(sse15 / len(good)))
+        print(f"  with the exponent held at 1.5: k {k15:.3f}, log rms "
+              f"{result['log_rms_at_exponent_1_5']:.3f}")
     with open(os.path.join(args.out, "beverloo.json"), "w") as f:
         json.dump(result, f, indent=1)
 
@@ -166,8 +176,10 @@ def main():
         xs = [lo + (hi - lo) * i / 100 for i in range(101)]
         right.plot([x / d for x in xs], [A * (x - k * d) ** b for x in xs], "-",
                    label=f"fit: (D - {k:.2f} d)^{b:.2f}")
-        right.plot([x / d for x in xs], [A * (x - k * d) ** 1.5 * (hi - k * d) ** (b - 1.5)
-                                         for x in xs], ":", label="exponent 1.5")
+        k15 = result["k_at_exponent_1_5"]
+        A15 = result["C_at_exponent_1_5"] * args.density * math.sqrt(args.gravity)
+        right.plot([x / d for x in xs], [A15 * (x - k15 * d) ** 1.5 for x in xs], ":",
+                   label=f"exponent held at 1.5: (D - {k15:.2f} d)^1.5")
         right.set_xscale("log")
         right.set_yscale("log")
     right.set_xlabel("D / d")
