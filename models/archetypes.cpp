@@ -34,4 +34,30 @@ std::vector<double> bouncingBallImpactTimes(const BouncingBallParameters& p, int
   return times;
 }
 
+Scene rockingBlock(const RockingBlockParameters& p) {
+  const double b = p.half_width, c = p.half_height;
+  ModelBuilder mb("rocking block");
+  addPlanarBody(mb, "block", solidBoxInertia(p.mass, Vector3(2.0 * b, 2.0 * c, 0.01)));
+  mb.setGravity(Vector3(0.0, -p.gravity, 0.0));
+  Scene scene;
+  scene.model = mb.build();
+  ContactModelBuilder cb(scene.model);
+  cb.materials().setDefaultLaw({p.friction, 0.0});
+  cb.addGeometry("block", BodyRef::dynamic(0), Pose::identity(),
+                 Shape::polygon({{-b, -c}, {b, -c}, {b, c}, {-b, c}}));
+  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfPlane());
+  scene.cmodel = cb.build();
+  // the bottom-right corner (b, -c), rotated by the tilt, sits at the origin
+  const Eigen::Rotation2Dd R(p.tilt);
+  const Vector2 centre = -(R * Vector2(b, -c));
+  scene.q0 = Vector3(centre.x(), centre.y(), p.tilt);
+  scene.v0 = VectorX::Zero(3);
+  return scene;
+}
+
+double housnerRatio(const RockingBlockParameters& p) {
+  const double s = std::atan(p.half_width / p.half_height);
+  return 1.0 - 1.5 * std::sin(s) * std::sin(s);
+}
+
 }  // namespace sweep

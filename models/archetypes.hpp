@@ -20,4 +20,19 @@ Scene bouncingBall(const BouncingBallParameters& parameters);
 // Analytic impact times of V1: t_1 = sqrt(2 drop / g), t_n = t_1 + (2 v_1 / g) sum_{j<n} e^j.
 std::vector<double> bouncingBallImpactTimes(const BouncingBallParameters& parameters, int count);
 
+// V5, Housner's rocking block: a block of width 2b and height 2c (mass m, planar) tilted by
+// theta0 (clockwise for theta0 < 0) on its bottom-right corner at the origin, over a floor
+// half-plane; e = 0, friction mu. Each corner impact should scale the angular velocity by
+// 1 - 3/2 sin^2(s), tan s = b / c, if the impacting corner sticks.
+struct RockingBlockParameters {
+  double half_width = 0.5;    // b
+  double half_height = 0.75;  // c
+  double mass = 1.0;
+  double friction = 1.0;
+  double tilt = -0.1;  // rad
+  double gravity = 9.81;
+};
+Scene rockingBlock(const RockingBlockParameters& parameters);
+double housnerRatio(const RockingBlockParameters& parameters);  // 1 - 3/2 sin^2(s)
+
 }  // namespace sweep

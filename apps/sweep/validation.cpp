@@ -100,4 +100,30 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
   return points;
 }
 
+RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
+                                      double h) {
+  const Scene scene = rockingBlock(parameters);
+  SchemeSettings settings;
+  settings.scheme = scheme;
+  settings.h = h;
+  settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
+      1e-12;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  // the bottom-left corner (-b, -c) is the one that hits the floor first
+  // (its x in world: explicit components, which GCC 12's dangling-pointer check accepts)
+  auto leftCornerX = [&](const VectorX& q) {
+    return q[0] - std::cos(q[2]) * parameters.half_width + std::sin(q[2]) * parameters.half_height;
+  };
+  for (int k = 0; k < 40000; ++k) {
+    const double before = stepper.v()[2];
+    const double corner_before = leftCornerX(stepper.q());
+    stepper.step();
+    const double after = stepper.v()[2];
+    if (std::abs(before) > 0.05 && std::abs(after) < 0.8 * std::abs(before))
+      return {after / before, std::abs(leftCornerX(stepper.q()) - corner_before)};
+  }
+  return {std::nan(""), 0.0};
+}
+
 }  // namespace sweep

@@ -32,4 +32,14 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
 std::vector<double> bouncingBallReferenceImpacts(const BouncingBallParameters& parameters,
                                                  double t_end);
 
+// V5: omega+ / omega- at the first corner impact of the rocking block (the first step whose
+// angular speed drops below 0.8 of the previous one, once above 0.05 rad/s), and how far the
+// impacting corner slid during that step (m). NaN ratio if no impact within 40 000 steps.
+struct RockingImpact {
+  double ratio = 0.0;
+  double corner_slip = 0.0;
+};
+RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
+                                      double h);
+
 }  // namespace sweep

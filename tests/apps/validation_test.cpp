@@ -133,6 +133,59 @@ TEST_P(Archetypes, NewtonsCradleExample) {
   EXPECT_LT((sequential - Vector3(0.0, 0.0, 1.0)).norm(), 1e-10);
 }
 
+// V5: the first corner impact of Housner's rocking block. The reference predicts the stick
+// thresholds: mu >= 0.45 for Jean-Moreau (the classical impulse (P_T, P_N) = (-0.346, 0.769)
+// per unit omega-), mu >= 0.666 for the staggered scheme (its frictionless stage-1 impulse
+// 0.52 is what sets the friction bound). Bracketed at +-0.01 and +-0.014: below, the corner
+// slides and the ratio falls short of Housner's; above, the corner holds (slip < 1e-8 m) and
+// the ratio is Housner's up to the block's own rotation during the impact step, O(h):
+// 4.3e-4 at h = 1e-4, so 1e-3.
+TEST(RockingBlock, StickThresholdsOfBothSchemes) {
+  struct Case {
+    Scheme scheme;
+    double mu;
+    bool sticks;
+  };
+  const Case cases[] = {{Scheme::MoreauJean, 0.44, false},
+                        {Scheme::MoreauJean, 0.46, true},
+                        {Scheme::CatchingUp, 0.46, false},
+                        {Scheme::CatchingUp, 0.652, false},
+                        {Scheme::CatchingUp, 0.68, true}};
+  for (const Case& c : cases) {
+    RockingBlockParameters parameters;
+    parameters.friction = c.mu;
+    const RockingImpact impact = rockingBlockFirstImpact(parameters, c.scheme, 1e-4);
+    const double housner = housnerRatio(parameters);
+    if (c.sticks) {
+      EXPECT_NEAR(impact.ratio, housner, 1e-3) << schemeName(c.scheme) << " mu " << c.mu;
+      EXPECT_LT(impact.corner_slip, 1e-8) << schemeName(c.scheme) << " mu " << c.mu;
+    } else {
+      EXPECT_LT(impact.ratio, housner - 0.005) << schemeName(c.scheme) << " mu " << c.mu;
+      EXPECT_GT(impact.corner_slip, 1e-7) << schemeName(c.scheme) << " mu " << c.mu;
+    }
+  }
+}
+
+// The runnable example is the same block: with mu = 1 both schemes give Housner's ratio.
+TEST_P(Archetypes, RockingBlockExampleFollowsHousner) {
+  SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/rocking_block.yaml");
+  file.run.scheme.scheme = GetParam();
+  const Scene scene = buildSceneFile(file);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  int impacts = 0;
+  for (int k = 0; k < 20000 && impacts < 2; ++k) {
+    const double before = stepper.v()[2];
+    stepper.step();
+    const double after = stepper.v()[2];
+    if (std::abs(before) > 0.05 && std::abs(after) < 0.8 * std::abs(before)) {
+      EXPECT_NEAR(after / before, housnerRatio(RockingBlockParameters{}), 1e-3) << impacts;
+      ++impacts;
+    }
+  }
+  EXPECT_EQ(impacts, 2);
+}
+
 INSTANTIATE_TEST_SUITE_P(Schemes, Archetypes,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const ::testing::TestParamInfo<Scheme>& scheme) {
