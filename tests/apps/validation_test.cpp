@@ -186,6 +186,37 @@ TEST_P(Archetypes, RockingBlockExampleFollowsHousner) {
   EXPECT_EQ(impacts, 2);
 }
 
+// V2b from examples/archetypes/block_on_incline.yaml: with mu = 0.2 the block slides at
+// g (sin a - mu cos a) (measured over 1000 steps after 10, to 1e-9: constant acceleration
+// is exact for the scheme); with mu = 0.5 > tan a it sticks, and over 10^4 steps (10 s) its
+// centre moves by less than 1e-12 m.
+TEST_P(Archetypes, BlockOnInclineExampleSlidesOrSticks) {
+  const double a = 0.4, g = 9.81;
+  const Vector3 down(-std::cos(a), -std::sin(a), 0.0);
+  for (double mu : {0.2, 0.5}) {
+    const SceneFile file =
+        loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/block_on_incline.yaml",
+                      {"contact.friction=" + std::to_string(mu)});
+    const Scene scene = buildSceneFile(file);
+    const double h = file.run.scheme.h;
+    SchemeSettings settings = file.run.scheme;
+    settings.scheme = GetParam();
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    for (int k = 0; k < 10; ++k) stepper.step();
+    const double v0 = stepper.v().head<3>().dot(down);
+    const Vector3 x0(stepper.q()[0], stepper.q()[1], 0.0);
+    const int steps = mu < std::tan(a) ? 1000 : 10000;
+    for (int k = 0; k < steps; ++k) stepper.step();
+    if (mu < std::tan(a)) {
+      const double acceleration = (stepper.v().head<3>().dot(down) - v0) / (steps * h);
+      EXPECT_NEAR(acceleration, g * (std::sin(a) - mu * std::cos(a)), 1e-9);
+    } else {
+      EXPECT_LT((Vector3(stepper.q()[0], stepper.q()[1], 0.0) - x0).norm(), 1e-12);
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Schemes, Archetypes,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const ::testing::TestParamInfo<Scheme>& scheme) {
