@@ -217,6 +217,43 @@ TEST_P(Archetypes, BlockOnInclineExampleSlidesOrSticks) {
   }
 }
 
+// V7 from examples/archetypes/painleve_rod.yaml, one step at h = 1e-4. Jean-Moreau jams: an
+// O(1) impulse (0.3, 0.4) stops A and leaves v+ = (-0.6, 0.3, 1.342) and KE = 0.30 (the
+// reference's values as h -> 0; 2e-3 allows for the step's own gravity impulse, g h ~ 1e-3).
+// The staggered scheme does not jump: stage 5a's normal impulse is h N0, N0 = m g / W_NN
+// (0.625 m g), stage 5b's friction impulse is mu h N0, and GLOBAL mode adds the bilateral
+// correction -W_NT mu h N0 / W_NN that holds U_N: in all h N0 (1 + mu 1.2 / 1.6) = 2.125 h N0,
+// O(h) (to 1e-3 relative: W is evaluated at the midpoint, which has not turned). The rod keeps
+// sliding, losing O(h) speed (2.34 g h = 2.3e-3 m/s).
+TEST(PainleveRod, ExampleJamsInMoreauJeanAndSlidesInTheStaggeredScheme) {
+  const std::string path = SWEEP_SOURCE_DIR "/examples/archetypes/painleve_rod.yaml";
+  for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
+    SceneFile file = loadSceneFile(path);
+    file.run.scheme.scheme = scheme;
+    const Scene scene = buildSceneFile(file);
+    const double h = file.run.scheme.h;
+    TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    stepper.step();
+    ASSERT_EQ(stepper.impulses().size(), 1u);
+    const Vector3 P = stepper.impulses()[0];
+    const VectorX& v = stepper.v();
+    if (scheme == Scheme::MoreauJean) {
+      EXPECT_NEAR(P.x(), 0.3, 2e-3);
+      EXPECT_NEAR(std::abs(P.y()), 0.4, 2e-3);
+      EXPECT_LT((v - Vector3(-0.6, 0.3, 1.342)).norm(), 2e-3);
+      EXPECT_NEAR(stepper.stats().kinetic, 0.30, 2e-3);
+    } else {
+      const double expected = 2.125 * h * 0.625 * 9.81;
+      EXPECT_NEAR(P.x(), expected, 1e-3 * expected);
+      EXPECT_NEAR(std::abs(P.y()), 1.5 * h * 0.625 * 9.81, 1e-3 * expected);
+      EXPECT_NEAR(v[0], -1.0, 2.5 * 9.81 * h);
+      EXPECT_LE(stepper.stats().work_tangent, 0.0);
+      EXPECT_NEAR(stepper.stats().kinetic, 0.5, 2e-3);
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Schemes, Archetypes,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const ::testing::TestParamInfo<Scheme>& scheme) {
