@@ -39,17 +39,20 @@ std::string formatDuration(double seconds) {
 
 const char* kStatsHeader =
     "step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,pen_sum,"
-    "pen_count,kinetic,potential,work_normal,work_tangent,t_detect,t_assemble,t_solve,t_update\n";
+    "pen_count,kinetic,potential,work_normal,work_tangent";
+const char* kTimingHeader = ",t_detect,t_assemble,t_solve,t_update";
 
-void appendStatsRow(std::ostream& out, const StepStats& s) {
+void appendStatsRow(std::ostream& out, const StepStats& s, bool timings) {
   out << s.step << ',' << exactNumber(s.t) << ',' << s.candidates << ',' << s.active << ','
       << s.iterations_stage1 << ',' << s.iterations_stage2 << ',' << exactNumber(s.residual) << ','
       << (s.cap_hit ? 1 : 0) << ',' << exactNumber(s.penetration_max) << ','
       << exactNumber(s.penetration_sum) << ',' << s.penetration_count << ','
       << exactNumber(s.kinetic) << ',' << exactNumber(s.potential) << ','
-      << exactNumber(s.work_normal) << ',' << exactNumber(s.work_tangent) << ','
-      << exactNumber(s.t_detect) << ',' << exactNumber(s.t_assemble) << ','
-      << exactNumber(s.t_solve) << ',' << exactNumber(s.t_update) << '\n';
+      << exactNumber(s.work_normal) << ',' << exactNumber(s.work_tangent);
+  if (timings)
+    out << ',' << exactNumber(s.t_detect) << ',' << exactNumber(s.t_assemble) << ','
+        << exactNumber(s.t_solve) << ',' << exactNumber(s.t_update);
+  out << '\n';
 }
 
 class Progress {
@@ -153,7 +156,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   if (files && settings.output.stats) {
     stats.open(stats_path + ".partial", std::ios::binary);
     if (!stats) throw std::runtime_error(stats_path + ".partial: cannot open for writing");
-    stats << kStatsHeader;
+    stats << kStatsHeader << (settings.output.timings ? kTimingHeader : "") << '\n';
   }
   std::unique_ptr<VtkSeries> vtk;
   const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;
@@ -199,7 +202,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;
-    if (stats.is_open()) appendStatsRow(stats, s);
+    if (stats.is_open()) appendStatsRow(stats, s, settings.output.timings);
     if (vtk) {
       const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
       const bool interval = settings.output.vtk_interval > 0.0 && s.t >= next_snapshot - 1e-9 * h;

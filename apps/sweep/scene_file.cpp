@@ -541,9 +541,10 @@ class SceneParser {
   }
 
   void parseOutput(const YamlField& f) {
-    f.allowOnly({"stats", "vtk_every", "vtk_interval"});
+    f.allowOnly({"stats", "timings", "vtk_every", "vtk_interval"});
     OutputSettings& o = out_.run.output;
     o.stats = f.boolean("stats", o.stats);
+    o.timings = f.boolean("timings", o.timings);
     o.vtk_every = f.integer("vtk_every", o.vtk_every);
     if (o.vtk_every < 0) f["vtk_every"].fail("must be >= 0");
     o.vtk_interval = f.nonNegative("vtk_interval", o.vtk_interval);

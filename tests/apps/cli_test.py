@@ -2,6 +2,7 @@
 """End-to-end tests of the `sweep` binary: files written by run and bench, exit codes,
 messages of the malformed-scene catalogue, --set, and Ctrl-C. Usage: cli_test.py SWEEP DATA"""
 import csv
+import hashlib
 import json
 import os
 import signal
@@ -129,6 +130,21 @@ class Inputs(unittest.TestCase):
             s = json.load(f)
         self.assertEqual(s["scheme"], "moreau-jean")
         self.assertEqual(s["steps"], 20)
+
+    def test_without_timings_stats_are_bitwise_reproducible(self):
+        digests = []
+        for _ in range(2):
+            out = tempfile.mkdtemp(prefix="sweep_repeat_")
+            r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set",
+                      "output.timings=false", "--set", "time.end=0.01")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(os.path.join(out, "stats.csv"), "rb") as f:
+                data = f.read()
+            digests.append(hashlib.sha256(data).hexdigest())
+        header = data.decode().splitlines()[0]
+        self.assertEqual(header, HEADER.rsplit(",t_detect", 1)[0])
+        self.assertEqual(len(data.decode().splitlines()), 101)
+        self.assertEqual(digests[0], digests[1])
 
     def test_check_describes_without_running(self):
         r = sweep("check", "small_box.yaml")
