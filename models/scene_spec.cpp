@@ -5,7 +5,9 @@
 #include <random>
 #include <sstream>
 
+#include "contact/detection.hpp"
 #include "framework/error.hpp"
+#include "framework/kinematics.hpp"
 #include "framework/urdf_import.hpp"
 #include "models/rigid_bodies.hpp"
 
@@ -146,6 +148,25 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
   return inertia;
 }
 
+namespace {
+// Detection at the initial state with a zero margin: every pair that overlaps.
+void rejectInitialOverlaps(const SceneSpec& spec, const Scene& scene) {
+  Data data(scene.model);
+  forwardKinematics(scene.model, data, scene.q0, scene.v0);
+  ContactData cdata(scene.model, scene.cmodel);
+  detectContacts(scene.model, data, scene.cmodel, cdata, 0.0, 0.0);
+  for (const Contact& c : cdata.contacts) {
+    if (-c.gap <= spec.max_initial_overlap) continue;
+    const std::string& a = scene.cmodel.geometries[c.key.geometry_a].name;
+    const std::string& b = scene.cmodel.geometries[c.key.geometry_b].name;
+    throw InputError(spec.source + ": '" + a + "' and '" + b + "' overlap by " +
+                     formatValue(-c.gap) + " m at t = 0, more than " +
+                     formatValue(spec.max_initial_overlap) +
+                     " m (detection.max_initial_overlap): move them apart");
+  }
+}
+}  // namespace
+
 Scene buildScene(const SceneSpec& spec) {
   if (spec.dimension != 2 && spec.dimension != 3)
     throw InputError(spec.source + ": dimension must be 2 or 3, got " +
@@ -264,6 +285,9 @@ Scene buildScene(const SceneSpec& spec) {
   }
   if (!spec.urdfs.empty()) cb.addModelCollisions(urdf_material_from);
   scene.cmodel = cb.build();
+  if (scene.model.nv == 0)
+    throw InputError(spec.source + ": the scene has no dynamic body: nothing to simulate");
+  if (spec.max_initial_overlap >= 0.0) rejectInitialOverlaps(spec, scene);
   return scene;
 }
 

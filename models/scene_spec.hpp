@@ -67,6 +67,9 @@ struct SceneSpec {
   std::vector<BodySpec> bodies;
   std::vector<UrdfSpec> urdfs;
   DetectionSettings detection;
+  // Bodies that overlap by more than this at t = 0 (m) are an input error: a run would start
+  // with an O(1) push-out or a silently wrong state. < 0: no check.
+  double max_initial_overlap = 1e-9;
 };
 
 // Grain radii: one value, a normal law truncated at +-3 standard deviations (redrawn beyond),

@@ -455,7 +455,7 @@ class SceneParser {
   }
 
   void parseDetection(const YamlField& f) {
-    f.allowOnly({"path", "speed_factor", "margin", "self_collision"});
+    f.allowOnly({"path", "speed_factor", "margin", "self_collision", "max_initial_overlap"});
     DetectionSettings& d = out_.spec.detection;
     const std::string path = f.text("path", "automatic");
     if (path == "automatic")
@@ -469,6 +469,7 @@ class SceneParser {
     d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
     d.floor = f.nonNegative("margin", d.floor);
     d.self_collision = f.boolean("self_collision", d.self_collision);
+    out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);
   }
 
   NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {

@@ -184,6 +184,10 @@ void applyOverride(YAML::Node& root, const std::string& assignment, const std::s
         node[key] = value;
         return;
       }
+      // a section the file does not have yet (`--set detection.margin=...` on a scene
+      // without `detection:`) is created, as writing it in the file would
+      if (path[stop] == '.' && (!node[key] || node[key].IsNull()))
+        node[key] = YAML::Node(YAML::NodeType::Map);
       next.reset(node[key]);
       node.reset(next);
     }
