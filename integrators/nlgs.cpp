@@ -389,6 +389,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     ws.threshold[c] = S;
     ws.held_normal[c] = p.localVelocity(c, v).x();
   }
+  // GLOBAL mode holds the normal velocity of every contact closed by stage 5a (lambda_N > 0),
+  // frictionless ones (mu = 0 pairs, joint limits) included: friction elsewhere must not
+  // push them open or closed
+  auto held = [&](int c) { return options.tangents == TangentMode::Global && lambda_N[c] > 0.0; };
   auto tangentMap = [&](int c, const Vector2& dl) {
     // impulse in (normal, tangents) whose generalized force is the chosen tangent times dl
     // in 2D the second tangent component of dl and of the coupling is zero
@@ -405,7 +409,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // With U*_N = U_N (e = 0, VEL) the closed contacts have U_N = 0 after stage 5a, up to the
   // tolerance, and v_N vanishes: skipped
   for (int c = 0; c < n; ++c)
-    needs_projection = needs_projection || (ws.threshold[c] > 0.0 && p.normal_bias[c] != 0.0);
+    needs_projection = needs_projection || (lambda_N[c] > 0.0 && p.normal_bias[c] != 0.0);
   if (options.tangents == TangentMode::Global && needs_projection) {
     if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
     ws.v_normal.setZero();
@@ -413,7 +417,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     for (int sweep_count = 0; sweep_count < settings.max_iterations; ++sweep_count) {
       double change2 = 0.0, size2 = 0.0;
       for (int c = 0; c < n; ++c) {
-        if (ws.threshold[c] <= 0.0) continue;
+        if (lambda_N[c] <= 0.0) continue;
         // residual of W_N^T v_N = W_N^T v1 (the known term cancels)
         const double r = ws.held_normal[c] - p.localVelocity(c, ws.v_normal).x();
         const double dy = r / p.delassus[c](0, 0);
@@ -432,7 +436,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   for (int c = 0; c < n; ++c) {
     // a warm start must be admissible: contacts without threshold carry no friction, and
     // the sweep skips them, so nothing may be left on them
-    if (options.tangents != TangentMode::Global || ws.threshold[c] <= 0.0) delta[c] = 0.0;
+    if (!held(c)) delta[c] = 0.0;
     if (ws.threshold[c] <= 0.0) lambda_T[c].setZero();
     Vector3 warm = tangentMap(c, lambda_T[c]);
     warm.x() += delta[c];
@@ -452,7 +456,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
       const double radius = ws.threshold[c];
-      if (radius <= 0.0 && delta[c] == 0.0) continue;
+      if (radius <= 0.0 && !held(c)) continue;
       const ContactProblem::PackedRow2d& r = p.rows2d[c];
       Vector2 u = r.known;
       for (int e = r.begin; e < r.end; ++e) u += Vector2(h[e].normal, h[e].tangent) * v[h[e].dof];
@@ -471,7 +475,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       const double lambda = lambda_T[c].x();
       const double dl = omega * (std::clamp(lambda - uT / A, -radius, radius) - lambda);
       double dN = options.tangents == TangentMode::Local ? -coupling * dl : 0.0;
-      if (options.tangents == TangentMode::Global && radius > 0.0) {
+      if (held(c)) {
         const double dd = -(drift + r.W(0, 1) * dl) * r.normal_inverse;
         dN += dd;
         delta[c] += dd;
@@ -491,7 +495,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     double f2 = 0.0, scale2 = 0.0;
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
-      if (ws.threshold[c] <= 0.0 && delta[c] == 0.0) continue;
+      if (ws.threshold[c] <= 0.0 && !held(c)) continue;
       const Vector2& coupling = ws.coupling[c];
       const Matrix3& W = p.delassus[c];
       const Vector3 u = p.localVelocity(c, v);
@@ -502,7 +506,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       double drift = 0.0;
       switch (options.tangents) {
         case TangentMode::Global:
-          bilateral = ws.threshold[c] > 0.0;
+          bilateral = held(c);
           drift = u.x() - ws.held_normal[c];
           // eliminating the normal correction leaves the Schur complement
           uT -= coupling * drift;
