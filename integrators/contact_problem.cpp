@@ -57,8 +57,8 @@ void ContactProblem::pack2d() {
 
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
-                            const VectorX& v_start, ContactProblem& p,
-                            ContactProblemWorkspace& ws) {
+                            const VectorX& v_start, ContactProblem& p, ContactProblemWorkspace& ws,
+                            const VectorX* v_free) {
   const ContactJacobian& J = cdata.jacobian;
   p.dimension = cmodel.dimension;
   p.contact.clear();
@@ -169,7 +169,9 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   for (int l = 0; l < static_cast<int>(model.limits.size()); ++l) {
     const JointLimit& limit = model.limits[l];
     const double gap = limit.side * (q_m[limit.q_index] - limit.bound);
-    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * std::abs(v_start[limit.v_index]);
+    double rate = std::abs(v_start[limit.v_index]);
+    if (v_free) rate = std::max(rate, std::abs((*v_free)[limit.v_index]));
+    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * rate;
     if (gap > reach) continue;
     p.contact.push_back(-1 - l);
     p.dof.push_back(limit.v_index);

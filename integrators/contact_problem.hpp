@@ -100,10 +100,12 @@ struct ContactProblemWorkspace {
 // blocks of data (at q_m). tau = h/2 is the time over which a gap closes (midpoint scheme).
 // Joint limits (Model::limits) join the same solve as frictionless unilateral rows with gap
 // side (q_m - bound); with the gap-aware laws a limit enters once it can close within the
-// step (gap <= 2 tau |joint rate|).
+// step: gap <= 2 tau |joint rate|, the rate taken at the start of the step and, when given,
+// in v_free (a joint that gravity or the applied forces accelerate into its limit during the
+// step would otherwise pass it unseen).
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& problem,
-                            ContactProblemWorkspace& workspace);
+                            ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr);
 
 }  // namespace sweep

@@ -130,7 +130,7 @@ void TimeStepper::assemble() {
   // forwardDynamics left the kinematics of data at q_m
   assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m);
   assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
-                         q_m_, v_, problem_, problem_ws_);
+                         q_m_, v_, problem_, problem_ws_, &v_free_);
   const int n = problem_.size();
   stats_.active = n;
   stats_.islands = problem_.islandCount();

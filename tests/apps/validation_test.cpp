@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "apps/sweep/scene_file.hpp"
 
@@ -251,6 +252,52 @@ TEST(PainleveRod, ExampleJamsInMoreauJeanAndSlidesInTheStaggeredScheme) {
       EXPECT_LE(stepper.stats().work_tangent, 0.0);
       EXPECT_NEAR(stepper.stats().kinetic, 0.5, 2e-3);
     }
+  }
+}
+
+// The URDF case, examples/archetypes/arm_on_table.yaml: a passive 6-dof arm read from URDF
+// falls onto a table; joints 2 and 3 reach their limits and the arm hits the table.
+// - Jean-Moreau with the POS law treats each limit as a position constraint of the coupled
+//   solve: no joint passes its limit by more than 1e-9 rad (measured 5e-11; before the limit
+//   rows saw the free velocity, a joint accelerated into its limit within a step passed it
+//   by 5e-6 rad).
+// - The staggered scheme passes limits that stage 5a left open by up to 5e-4 rad: stage 5b's
+//   friction at the table moves them and GLOBAL mode holds only the closed rows. This is the
+//   open item of docs/schemes.md; it is printed, not asserted.
+// - Energy: the run ends with less than it started (e = 0). Per step it may rise by the
+//   smooth integrator's own O(h^2) error on the arm (2.4e-4 J on 50 J with VEL), so no
+//   per-step bound is asserted.
+TEST_P(Archetypes, UrdfArmOnTableRespectsItsLimits) {
+  SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/arm_on_table.yaml");
+  file.run.scheme.scheme = GetParam();
+  const Scene scene = buildSceneFile(file);
+  const Model& model = scene.model;
+  ASSERT_EQ(model.limits.size(), 12u);
+  TimeStepper stepper(model, scene.cmodel, file.run.scheme);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  const double start = stepper.energy();
+  double worst = 0.0;
+  std::vector<int> active(model.limits.size(), 0);
+  int table_contacts = 0;
+  const int steps = static_cast<int>(std::lround(file.run.t_end / file.run.scheme.h));
+  for (int k = 0; k < steps; ++k) {
+    const StepStats& s = stepper.step();
+    for (std::size_t i = 0; i < model.limits.size(); ++i) {
+      const JointLimit& limit = model.limits[i];
+      worst = std::max(worst, -limit.side * (stepper.q()[limit.q_index] - limit.bound));
+      if (stepper.limitImpulses()[i] > 0.0) ++active[i];
+    }
+    table_contacts = std::max(table_contacts, s.active);
+  }
+  std::printf("URDF arm (%s): worst limit violation %.3g rad, energy %.4g -> %.4g J\n",
+              schemeName(GetParam()), worst, start, stepper.energy());
+  int limits_hit = 0;
+  for (int count : active) limits_hit += count > 0 ? 1 : 0;
+  EXPECT_GE(limits_hit, 2);
+  EXPECT_GE(table_contacts, 1);
+  EXPECT_LT(stepper.energy(), start);
+  if (GetParam() == Scheme::MoreauJean) {
+    EXPECT_LT(worst, 1e-9);
   }
 }
 
