@@ -11,6 +11,27 @@
 namespace sweep {
 namespace {
 
+// An example of examples/archetypes/ run by `scheme`: the scene file (with --set-style
+// overrides), its scene, and a stepper at the initial state.
+struct ExampleRun {
+  ExampleRun(const std::string& name, Scheme scheme, const std::vector<std::string>& overrides = {})
+      : file(load(name, scheme, overrides)),
+        scene(buildSceneFile(file)),
+        stepper(scene.model, scene.cmodel, file.run.scheme) {
+    stepper.reset(0.0, scene.q0, scene.v0);
+  }
+  static SceneFile load(const std::string& name, Scheme scheme,
+                        const std::vector<std::string>& overrides) {
+    SceneFile f =
+        loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/" + name + ".yaml", overrides);
+    f.run.scheme.scheme = scheme;
+    return f;
+  }
+  SceneFile file;
+  Scene scene;
+  TimeStepper stepper;
+};
+
 // The event-driven reference (CVODE with root finding on the gap) hits V1's analytic impact
 // times; CVODE runs at rtol 1e-12, so 1e-9 s leaves room for the root finder's own tolerance.
 TEST(BouncingBallReference, ImpactTimesAreAnalytic) {
@@ -60,13 +81,11 @@ TEST_P(Archetypes, BouncingBallFirstOrderAgainstTheEventDrivenReference) {
 // last bounce (the VEL law does not push it out): below v h / 2 for a bounce too short to
 // leave the floor for a whole step, v < g h / 2 = 0.025 m/s, i.e. 6e-5 m.
 TEST_P(Archetypes, BouncingBallExampleHitsTheSiconosImpactSteps) {
-  SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/bouncing_ball.yaml");
-  file.run.scheme.scheme = GetParam();
-  const Scene scene = buildSceneFile(file);
+  ExampleRun run("bouncing_ball", GetParam());
+  const SceneFile& file = run.file;
+  TimeStepper& stepper = run.stepper;
   const double h = file.run.scheme.h;
   ASSERT_EQ(h, 0.005);
-  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
-  stepper.reset(0.0, scene.q0, scene.v0);
   std::vector<double> impacts;
   while (stepper.time() < file.run.t_end - 0.5 * h) {
     const double vz = stepper.v()[2];
@@ -91,15 +110,9 @@ TEST_P(Archetypes, DiskOnInclineExampleRollsOrSlides) {
   const double g = 9.81, sin_a = 0.6 / std::sqrt(1.36), cos_a = 1.0 / std::sqrt(1.36);
   const Vector3 down(-cos_a, -sin_a, 0.0);
   for (double mu : {0.25, 0.1}) {
-    const SceneFile file =
-        loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/disk_on_incline.yaml",
-                      {"contact.friction=" + std::to_string(mu)});
-    const Scene scene = buildSceneFile(file);
-    const double h = file.run.scheme.h;
-    SchemeSettings settings = file.run.scheme;
-    settings.scheme = GetParam();
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
-    stepper.reset(0.0, scene.q0, scene.v0);
+    ExampleRun run("disk_on_incline", GetParam(), {"contact.friction=" + std::to_string(mu)});
+    TimeStepper& stepper = run.stepper;
+    const double h = run.file.run.scheme.h;
     stepper.step();
     stepper.step();
     const double v0 = stepper.v().head<3>().dot(down);
@@ -114,16 +127,11 @@ TEST_P(Archetypes, DiskOnInclineExampleRollsOrSlides) {
 // simultaneous law gives (-1/3, 2/3, 2/3); spaced 0.05 apart, two sequential impacts give
 // (0, 0, 1), in both schemes (1e-10: the solver tolerance is 1e-14, relative).
 TEST_P(Archetypes, NewtonsCradleExample) {
-  const std::string path = SWEEP_SOURCE_DIR "/examples/archetypes/newtons_cradle.yaml";
   auto velocities = [&](const std::vector<std::string>& overrides, int steps) {
-    const SceneFile file = loadSceneFile(path, overrides);
-    const Scene scene = buildSceneFile(file);
-    SchemeSettings settings = file.run.scheme;
-    settings.scheme = GetParam();
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
-    stepper.reset(0.0, scene.q0, scene.v0);
-    for (int k = 0; k < steps; ++k) stepper.step();
-    return Vector3(stepper.v()[0], stepper.v()[3], stepper.v()[6]);
+    ExampleRun run("newtons_cradle", GetParam(), overrides);
+    for (int k = 0; k < steps; ++k) run.stepper.step();
+    const VectorX& v = run.stepper.v();
+    return Vector3(v[0], v[3], v[6]);
   };
   if (GetParam() == Scheme::MoreauJean) {
     const Vector3 simultaneous = velocities({}, 1);
@@ -169,11 +177,8 @@ TEST(RockingBlock, StickThresholdsOfBothSchemes) {
 
 // The runnable example is the same block: with mu = 1 both schemes give Housner's ratio.
 TEST_P(Archetypes, RockingBlockExampleFollowsHousner) {
-  SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/rocking_block.yaml");
-  file.run.scheme.scheme = GetParam();
-  const Scene scene = buildSceneFile(file);
-  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
-  stepper.reset(0.0, scene.q0, scene.v0);
+  ExampleRun run("rocking_block", GetParam());
+  TimeStepper& stepper = run.stepper;
   int impacts = 0;
   for (int k = 0; k < 20000 && impacts < 2; ++k) {
     const double before = stepper.v()[2];
@@ -195,15 +200,9 @@ TEST_P(Archetypes, BlockOnInclineExampleSlidesOrSticks) {
   const double a = 0.4, g = 9.81;
   const Vector3 down(-std::cos(a), -std::sin(a), 0.0);
   for (double mu : {0.2, 0.5}) {
-    const SceneFile file =
-        loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/block_on_incline.yaml",
-                      {"contact.friction=" + std::to_string(mu)});
-    const Scene scene = buildSceneFile(file);
-    const double h = file.run.scheme.h;
-    SchemeSettings settings = file.run.scheme;
-    settings.scheme = GetParam();
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
-    stepper.reset(0.0, scene.q0, scene.v0);
+    ExampleRun run("block_on_incline", GetParam(), {"contact.friction=" + std::to_string(mu)});
+    TimeStepper& stepper = run.stepper;
+    const double h = run.file.run.scheme.h;
     for (int k = 0; k < 10; ++k) stepper.step();
     const double v0 = stepper.v().head<3>().dot(down);
     const Vector3 x0(stepper.q()[0], stepper.q()[1], 0.0);
@@ -227,14 +226,10 @@ TEST_P(Archetypes, BlockOnInclineExampleSlidesOrSticks) {
 // O(h) (to 1e-3 relative: W is evaluated at the midpoint, which has not turned). The rod keeps
 // sliding, losing O(h) speed (2.34 g h = 2.3e-3 m/s).
 TEST(PainleveRod, ExampleJamsInMoreauJeanAndSlidesInTheStaggeredScheme) {
-  const std::string path = SWEEP_SOURCE_DIR "/examples/archetypes/painleve_rod.yaml";
   for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
-    SceneFile file = loadSceneFile(path);
-    file.run.scheme.scheme = scheme;
-    const Scene scene = buildSceneFile(file);
-    const double h = file.run.scheme.h;
-    TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
-    stepper.reset(0.0, scene.q0, scene.v0);
+    ExampleRun run("painleve_rod", scheme);
+    TimeStepper& stepper = run.stepper;
+    const double h = run.file.run.scheme.h;
     stepper.step();
     ASSERT_EQ(stepper.impulses().size(), 1u);
     const Vector3 P = stepper.impulses()[0];
@@ -268,13 +263,11 @@ TEST(PainleveRod, ExampleJamsInMoreauJeanAndSlidesInTheStaggeredScheme) {
 //   smooth integrator's own O(h^2) error on the arm (2.4e-4 J on 50 J with VEL), so no
 //   per-step bound is asserted.
 TEST_P(Archetypes, UrdfArmOnTableRespectsItsLimits) {
-  SceneFile file = loadSceneFile(SWEEP_SOURCE_DIR "/examples/archetypes/arm_on_table.yaml");
-  file.run.scheme.scheme = GetParam();
-  const Scene scene = buildSceneFile(file);
-  const Model& model = scene.model;
+  ExampleRun run("arm_on_table", GetParam());
+  const SceneFile& file = run.file;
+  const Model& model = run.scene.model;
+  TimeStepper& stepper = run.stepper;
   ASSERT_EQ(model.limits.size(), 12u);
-  TimeStepper stepper(model, scene.cmodel, file.run.scheme);
-  stepper.reset(0.0, scene.q0, scene.v0);
   const double start = stepper.energy();
   double worst = 0.0;
   std::vector<int> active(model.limits.size(), 0);
