@@ -5,9 +5,10 @@ bench/validation_convergence (case,scheme,h,error,order). Usage:
   plot_convergence.py CONVERGENCE.csv OUT_DIR
 """
 import csv
-import math
 import os
 import sys
+
+from least_squares import log_log_slope
 
 import matplotlib
 
@@ -15,13 +16,6 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 MARKERS = {"moreau-jean": ("o-", "Jean-Moreau"), "catching-up": ("s--", "staggered")}
-
-
-def fitted_order(hs, errors):
-    x = [math.log2(h) for h in hs]
-    y = [math.log2(e) for e in errors]
-    mx, my = sum(x) / len(x), sum(y) / len(y)
-    return sum((a - mx) * (b - my) for a, b in zip(x, y)) / sum((a - mx) ** 2 for a in x)
 
 
 def main(argv):
@@ -39,7 +33,7 @@ def main(argv):
                 continue
             hs = [float(r["h"]) for r in mine]
             errors = [float(r["error"]) for r in mine]
-            ax.loglog(hs, errors, style, label=f"{label} (order {fitted_order(hs, errors):.2f})",
+            ax.loglog(hs, errors, style, label=f"{label} (order {log_log_slope(hs, errors):.2f})",
                       markersize=6 if scheme == "moreau-jean" else 4)
         hs = sorted({float(r["h"]) for r in rows if r["case"] == case})
         top = max(float(r["error"]) for r in rows if r["case"] == case)

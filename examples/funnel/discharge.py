@@ -26,12 +26,8 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from least_squares import slope  # noqa: E402
 from plot_snapshots import load, series  # noqa: E402
-
-
-def slope(ts, ms):
-    mt, mm = sum(ts) / len(ts), sum(ms) / len(ms)
-    return sum((t - mt) * (m - mm) for t, m in zip(ts, ms)) / sum((t - mt) ** 2 for t in ts)
 
 
 def discharge_curve(run_dir, density):

@@ -20,15 +20,8 @@ import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def fit_slope(xs, ys):
-    """Least-squares slope of log y against log x."""
-    lx = [math.log(x) for x in xs]
-    ly = [math.log(y) for y in ys]
-    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
-    sxx = sum((a - mx) ** 2 for a in lx)
-    return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sxx
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from least_squares import log_log_slope  # noqa: E402
 
 
 def main():
@@ -94,11 +87,11 @@ def main():
         mine = [r for r in rows if r["scheme"] == scheme]
         if len(mine) >= 2:
             slopes[scheme] = {
-                "cpu_per_step": fit_slope([r["mean_active"] for r in mine],
+                "cpu_per_step": log_log_slope([r["mean_active"] for r in mine],
                                           [r["cpu_per_step"] for r in mine]),
                 # cost per sweep and contact: what the slope would be without the growth of
                 # the sweep count with the depth of the pile
-                "cpu_per_sweep": fit_slope(
+                "cpu_per_sweep": log_log_slope(
                     [r["mean_active"] for r in mine],
                     [r["cpu_per_step"] / max(r["iterations_mean"], 1.0) for r in mine]),
             }
