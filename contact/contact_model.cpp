@@ -66,9 +66,12 @@ int ContactModelBuilder::addGeometry(const std::string& name, BodyRef body, cons
   return static_cast<int>(geometries_.size()) - 1;
 }
 
-void ContactModelBuilder::addModelCollisions(int material) {
+void ContactModelBuilder::addModelCollisions(int material, const std::vector<int>& body_materials) {
   for (std::size_t k = 0; k < model_.collisions.size(); ++k) {
     const CollisionGeometry& c = model_.collisions[k];
+    const std::size_t body = static_cast<std::size_t>(c.body);
+    const int chosen =
+        body < body_materials.size() && body_materials[body] >= 0 ? body_materials[body] : material;
     const std::string name =
         c.name.empty() ? model_.bodies[c.body].name + "/collision" + std::to_string(k) : c.name;
     Shape shape;
@@ -94,7 +97,7 @@ void ContactModelBuilder::addModelCollisions(int material) {
         }
         break;
     }
-    addGeometry(name, BodyRef::dynamic(c.body), c.placement, shape, material);
+    addGeometry(name, BodyRef::dynamic(c.body), c.placement, shape, chosen);
   }
 }
 

@@ -106,8 +106,9 @@ class ContactModelBuilder {
   int addGeometry(const std::string& name, BodyRef body, const Pose& placement, const Shape& shape,
                   int material = 0);
   // Turns Model::collisions (URDF collision elements) into geometries; meshes are read from
-  // their files (triangle meshes).
-  void addModelCollisions(int material = 0);
+  // their files (triangle meshes). body_materials[b], where given and >= 0, overrides
+  // `material` for the collisions of body b (a robot's rubber feet on a steel frame).
+  void addModelCollisions(int material = 0, const std::vector<int>& body_materials = {});
 
   // Validates every shape (InputError naming body and shape) and picks the detection path.
   ContactModel build() const;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "models/kinematic_trees.hpp"
 #include "models/rigid_bodies.hpp"
 
 namespace sweep {
@@ -58,6 +59,39 @@ Scene rockingBlock(const RockingBlockParameters& p) {
 double housnerRatio(const RockingBlockParameters& p) {
   const double s = std::atan(p.half_width / p.half_height);
   return 1.0 - 1.5 * std::sin(s) * std::sin(s);
+}
+
+Scene wallPendulum(const WallPendulumParameters& p) {
+  DoublePendulumParameters pendulum;
+  pendulum.m1 = p.m1;
+  pendulum.m2 = p.m2;
+  pendulum.l1 = p.l1;
+  pendulum.l2 = p.l2;
+  pendulum.g = p.gravity;
+  // one bob inertia for both links: the URDF twin states 1.6e-4 for each 1 kg bob
+  pendulum.tip_inertia = 0.4 * p.m1 * p.bob_radius * p.bob_radius;
+  Scene scene;
+  scene.model = doublePendulum(pendulum);
+  ContactModelBuilder cb(scene.model);
+  MaterialTable& materials = cb.materials();
+  const int bouncy = materials.add("bouncy"), plastic = materials.add("plastic"),
+            wall = materials.add("wall");
+  materials.setDefaultLaw({0.0, 0.0});
+  materials.setLaw(bouncy, wall, {0.0, p.e_upper});
+  materials.setLaw(plastic, wall, {0.0, p.e_lower});
+  Pose upper_bob, lower_bob;
+  upper_bob.translation = Vector3(0.0, -p.l1, 0.0);
+  lower_bob.translation = Vector3(0.0, -p.l2, 0.0);
+  cb.addGeometry("upper bob", BodyRef::dynamic(0), upper_bob, Shape::sphere(p.bob_radius), bouncy);
+  cb.addGeometry("lower bob", BodyRef::dynamic(1), lower_bob, Shape::sphere(p.bob_radius), plastic);
+  Pose face;  // the half-space's outward normal, local +z, turned to +x
+  face.rotation = Eigen::AngleAxisd(0.5 * M_PI, Vector3::UnitY()).toRotationMatrix();
+  face.translation = Vector3(-p.bob_radius, 0.0, 0.0);
+  cb.addGeometry("wall", BodyRef::world(), face, Shape::halfSpace(), wall);
+  scene.cmodel = cb.build();
+  scene.q0 = Eigen::Vector2d(p.theta1, p.theta2 - p.theta1);
+  scene.v0 = VectorX::Zero(2);
+  return scene;
 }
 
 }  // namespace sweep

@@ -35,4 +35,18 @@ struct RockingBlockParameters {
 Scene rockingBlock(const RockingBlockParameters& parameters);
 double housnerRatio(const RockingBlockParameters& parameters);  // 1 - 3/2 sin^2(s)
 
+// V10, a double pendulum hitting a wall: models/kinematic_trees.hpp's doublePendulum (relative
+// joint angles, gravity -y) with a bob sphere of radius r at each link's end (solid, so
+// I = 2/5 m r^2: the links stay rigid bodies, as in examples/archetypes/double_pendulum.urdf)
+// and a wall half-space whose face sits r behind x = 0. The gaps are the reference's
+// constraints l1 sin(th1) >= 0 (restitution e_upper) and l1 sin(th1) + l2 sin(th2) >= 0
+// (e_lower), th the absolute angles; frictionless.
+struct WallPendulumParameters {
+  double m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, gravity = 10.0;
+  double theta1 = 0.1, theta2 = 0.2;  // absolute angles at rest at t = 0
+  double e_upper = 1.0, e_lower = 0.0;
+  double bob_radius = 0.02;
+};
+Scene wallPendulum(const WallPendulumParameters& parameters);
+
 }  // namespace sweep

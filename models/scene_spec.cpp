@@ -208,12 +208,15 @@ Scene buildScene(const SceneSpec& spec) {
       mb.addDrivenBody(driven);
     }
   }
+  std::vector<std::pair<int, int>> urdf_bodies;  // [first, end) of each URDF's bodies
   for (const UrdfSpec& urdf : spec.urdfs) {
     UrdfOptions options;
     options.floating_base = urdf.floating_base;
     options.base_placement = urdf.base;
     options.name_prefix = urdf.prefix;
+    const int first = mb.bodyCount();
     addUrdf(mb, urdf.file, options);
+    urdf_bodies.emplace_back(first, mb.bodyCount());
   }
 
   Scene scene;
@@ -265,8 +268,9 @@ Scene buildScene(const SceneSpec& spec) {
     }
   }
 
-  int urdf_material_from = 0;
-  for (const UrdfSpec& urdf : spec.urdfs) {
+  std::vector<int> body_materials(model.bodies.size(), 0);
+  for (std::size_t u = 0; u < spec.urdfs.size(); ++u) {
+    const UrdfSpec& urdf = spec.urdfs[u];
     for (const auto& [joint, value] : urdf.joint_positions) {
       const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
       if (b.joint.nq() != 1)
@@ -281,9 +285,19 @@ Scene buildScene(const SceneSpec& spec) {
                          std::to_string(b.joint.nv()) + " velocities; set it by its state");
       scene.v0[b.v_index] = value;
     }
-    if (!urdf.material.empty()) urdf_material_from = materialId(urdf.material);
+    const auto [first, end] = urdf_bodies[u];
+    for (int b = first; b < end; ++b) body_materials[b] = materialId(urdf.material);
+    for (const auto& [link, material] : urdf.link_materials) {
+      int found = -1;
+      for (int b = first; b < end; ++b)
+        if (model.bodies[b].name == urdf.prefix + link) found = b;
+      if (found < 0)
+        throw InputError(spec.source + ": urdf[" + std::to_string(u) + "].link_materials." + link +
+                         ": no such link in " + urdf.file);
+      body_materials[found] = materialId(material);
+    }
   }
-  if (!spec.urdfs.empty()) cb.addModelCollisions(urdf_material_from);
+  if (!spec.urdfs.empty()) cb.addModelCollisions(0, body_materials);
   scene.cmodel = cb.build();
   if (scene.model.nv == 0)
     throw InputError(spec.source + ": the scene has no dynamic body: nothing to simulate");

@@ -54,7 +54,8 @@ struct UrdfSpec {
   bool floating_base = false;
   Pose base;
   std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
-  std::string material;
+  std::string material;  // of every link's collisions, unless link_materials names the link
+  std::vector<std::pair<std::string, std::string>> link_materials;  // (link, material)
 };
 
 struct SceneSpec {

@@ -431,8 +431,8 @@ class SceneParser {
     list.requireSequence();
     for (std::size_t i = 0; i < list.size(); ++i) {
       const YamlField f = list.at(i);
-      f.allowOnly(
-          {"file", "prefix", "floating", "position", "rpy", "joints", "velocities", "material"});
+      f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
+                   "material", "link_materials"});
       UrdfSpec u;
       u.file = resolve(path_, f["file"].text());
       if (!fs::exists(u.file)) f["file"].fail("no such file (" + u.file + ")");
@@ -449,6 +449,15 @@ class SceneParser {
       if (f.has("material")) {
         u.material = f["material"].text();
         requireMaterial(f["material"], u.material);
+      }
+      if (f.has("link_materials")) {
+        const YamlField links = f["link_materials"];
+        links.requireMap();
+        for (const std::string& link : links.keys()) {
+          const std::string material = links[link].text();
+          requireMaterial(links[link], material);
+          u.link_materials.emplace_back(link, material);
+        }
       }
       out_.spec.urdfs.push_back(u);
     }

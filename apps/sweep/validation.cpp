@@ -3,7 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "integrators/event_driven.hpp"
+#include "framework/energy.hpp"
+#include "framework/kinematics.hpp"
 
 namespace sweep {
 
@@ -22,6 +23,37 @@ UnilateralConstraint bouncingBallFloor(const Scene& scene,
   };
   floor.restitution = parameters.restitution;
   return floor;
+}
+
+std::vector<UnilateralConstraint> wallPendulumConstraints(const WallPendulumParameters& p) {
+  const double l1 = p.l1, l2 = p.l2;
+  UnilateralConstraint upper, lower;
+  upper.gap = [l1](const VectorX& q) { return l1 * std::sin(q[0]); };
+  upper.normal = [l1](const VectorX& q) {
+    return VectorX(Eigen::Vector2d(l1 * std::cos(q[0]), 0));
+  };
+  upper.curvature = [l1](const VectorX& q, const VectorX& v) {
+    return -l1 * std::sin(q[0]) * v[0] * v[0];
+  };
+  upper.restitution = p.e_upper;
+  lower.gap = [l1, l2](const VectorX& q) {
+    return l1 * std::sin(q[0]) + l2 * std::sin(q[0] + q[1]);
+  };
+  lower.normal = [l1, l2](const VectorX& q) {
+    const double c2 = l2 * std::cos(q[0] + q[1]);
+    return VectorX(Eigen::Vector2d(l1 * std::cos(q[0]) + c2, c2));
+  };
+  lower.curvature = [l1, l2](const VectorX& q, const VectorX& v) {
+    const double w2 = v[0] + v[1];
+    return -l1 * std::sin(q[0]) * v[0] * v[0] - l2 * std::sin(q[0] + q[1]) * w2 * w2;
+  };
+  lower.restitution = p.e_lower;
+  return {upper, lower};
+}
+
+double totalEnergy(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
+  forwardKinematics(model, data, q, v);
+  return kineticEnergy(model, data) + potentialEnergy(model, data);
 }
 
 // sample count of t_end / interval, checked to be a whole number
@@ -124,6 +156,54 @@ RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, 
       return {after / before, std::abs(leftCornerX(stepper.q()) - corner_before)};
   }
   return {std::nan(""), 0.0};
+}
+
+WallPendulumReference wallPendulumReference(const WallPendulumParameters& parameters, double t_end,
+                                            double sample_interval) {
+  const Scene scene = wallPendulum(parameters);
+  const long samples = wholeRatio(t_end, sample_interval, "t_end / sample_interval");
+  EventDrivenReference reference(scene.model, wallPendulumConstraints(parameters));
+  reference.reset(0.0, scene.q0, scene.v0);
+  WallPendulumReference out;
+  Data data(scene.model);
+  out.energy_start = totalEnergy(scene.model, data, scene.q0, scene.v0);
+  for (long j = 0; j <= samples; ++j) {
+    reference.advanceTo(static_cast<double>(j) * sample_interval);
+    out.q.push_back(reference.q());
+  }
+  out.energy_end = totalEnergy(scene.model, data, reference.q(), reference.v());
+  out.impacts = reference.impacts();
+  out.phases = reference.phases();
+  return out;
+}
+
+std::vector<ConvergencePoint> wallPendulumConvergence(const WallPendulumParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps,
+                                                      double t_end, double sample_interval) {
+  const Scene scene = wallPendulum(parameters);
+  const WallPendulumReference reference = wallPendulumReference(parameters, t_end, sample_interval);
+  const long samples = static_cast<long>(reference.q.size()) - 1;
+  std::vector<ConvergencePoint> points;
+  for (double h : steps) {
+    const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
+    SchemeSettings settings;
+    settings.scheme = scheme;
+    settings.h = h;
+    settings.coulomb.tolerance = settings.normal_stage.tolerance = 1e-12;
+    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    double sum2 = 0.0;
+    for (long j = 1; j <= samples; ++j) {
+      for (long k = 0; k < per_sample; ++k) stepper.step();
+      sum2 += (stepper.q() - reference.q[j]).squaredNorm();
+    }
+    const double error = std::sqrt(sum2 / static_cast<double>(samples));
+    ConvergencePoint point{h, error, 0.0};
+    if (!points.empty()) point.order = std::log2(points.back().error / error);
+    points.push_back(point);
+  }
+  return points;
 }
 
 }  // namespace sweep

@@ -4,6 +4,7 @@
 // observed order. Shared by the tests and bench/validation_convergence.
 #include <vector>
 
+#include "integrators/event_driven.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/archetypes.hpp"
 
@@ -41,5 +42,23 @@ struct RockingImpact {
 };
 RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
                                       double h);
+
+// V10: the event-driven reference of the wall pendulum (its constraints, in absolute angles
+// th1 = q1, th2 = q1 + q2), sampled at j * sample_interval up to t_end: joint angles per
+// sample, and the impacts and persistent-contact phases it went through.
+struct WallPendulumReference {
+  std::vector<VectorX> q;  // samples j = 0 .. t_end / sample_interval
+  std::vector<Impact> impacts;
+  std::vector<ContactPhase> phases;
+  double energy_start = 0.0, energy_end = 0.0;
+};
+WallPendulumReference wallPendulumReference(const WallPendulumParameters& parameters, double t_end,
+                                            double sample_interval);
+
+// V10: the RMS over the samples of the joint-angle error |q_h(t) - q_ref(t)| (rad), for each h.
+std::vector<ConvergencePoint> wallPendulumConvergence(const WallPendulumParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps,
+                                                      double t_end, double sample_interval);
 
 }  // namespace sweep
