@@ -153,10 +153,15 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.normal_bias.push_back(bias);
   };
 
+  // A contact that touches exactly (a block placed on a floor) has a computed gap of
+  // +-1e-17 m from round-off; with the bare test gap <= 0, one of a block's two corners would
+  // leave the index set at random and the block would rock. Gaps below 1e-9 of the margin
+  // floor (1e-12 of the smallest shape size) count as closed.
+  const double touching = 1e-9 * cmodel.margin_floor;
   for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
     const Contact& contact = cdata.contacts[c];
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
-    if (law == NormalLaw::Vel && contact.gap > 0.0) continue;
+    if (law == NormalLaw::Vel && contact.gap > touching) continue;
     p.contact.push_back(c);
     for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
       p.dof.push_back(J.dof[k]);

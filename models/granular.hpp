@@ -1,4 +1,5 @@
 #pragma once
+#include <functional>
 // Granular test scenes: polydisperse disks (2D) or spheres (3D) in an open box, filled from
 // a loose lattice. One builder, reused by tests and benchmarks.
 #include <cstdint>
@@ -13,6 +14,8 @@ struct Scene {
   ContactModel cmodel;
   VectorX q0;
   VectorX v0;
+  // applied generalized forces tau(t, q, v) besides gravity (the scene's loads); empty if none
+  std::function<void(double t, const VectorX& q, const VectorX& v, VectorX& tau)> forces;
 };
 
 struct GranularBoxParameters {

@@ -167,6 +167,51 @@ void rejectInitialOverlaps(const SceneSpec& spec, const Scene& scene) {
 }
 }  // namespace
 
+namespace {
+
+// The loads as generalized forces. A planar body's velocities are (x, y rates of its origin,
+// spin), a free body's (its origin's world velocity, body-frame angular velocity), so a force
+// at the origin enters as it is and a torque as its z (2D) or its body-frame components.
+std::function<void(double, const VectorX&, const VectorX&, VectorX&)> sceneLoads(
+    const SceneSpec& spec, const Model& model) {
+  if (spec.loads.empty()) return {};
+  struct Applied {
+    LoadSpec load;
+    int v_index, q_index;
+  };
+  std::vector<Applied> applied;
+  for (std::size_t k = 0; k < spec.loads.size(); ++k) {
+    const LoadSpec& load = spec.loads[k];
+    bool dynamic = false;
+    for (const BodySpec& body : spec.bodies)
+      dynamic = dynamic || (body.name == load.body && body.kind == BodySpec::Kind::Dynamic);
+    if (!dynamic)
+      throw InputError(spec.source + ": loads[" + std::to_string(k) + "].body: no dynamic body '" +
+                       load.body + "' in the bodies list");
+    const Body& b = model.bodies[model.bodyIndex(load.body)];
+    applied.push_back({load, b.v_index, b.q_index});
+  }
+  const bool planar = spec.dimension == 2;
+  return [applied, planar](double t, const VectorX& q, const VectorX&, VectorX& tau) {
+    for (const Applied& a : applied) {
+      const Vector3 force = a.load.force + t * a.load.force_rate;
+      const Vector3 torque = a.load.torque + t * a.load.torque_rate;
+      if (planar) {
+        tau[a.v_index] += force.x();
+        tau[a.v_index + 1] += force.y();
+        tau[a.v_index + 2] += torque.z();
+      } else {
+        Eigen::Quaterniond rotation;
+        rotation.coeffs() = q.segment<4>(a.q_index + 3);
+        tau.segment<3>(a.v_index) += force;
+        tau.segment<3>(a.v_index + 3) += rotation.conjugate() * torque;
+      }
+    }
+  };
+}
+
+}  // namespace
+
 Scene buildScene(const SceneSpec& spec) {
   if (spec.dimension != 2 && spec.dimension != 3)
     throw InputError(spec.source + ": dimension must be 2 or 3, got " +
@@ -298,6 +343,7 @@ Scene buildScene(const SceneSpec& spec) {
     }
   }
   if (!spec.urdfs.empty()) cb.addModelCollisions(0, body_materials);
+  scene.forces = sceneLoads(spec, model);
   scene.cmodel = cb.build();
   if (scene.model.nv == 0)
     throw InputError(spec.source + ": the scene has no dynamic body: nothing to simulate");

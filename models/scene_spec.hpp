@@ -48,6 +48,15 @@ struct BodySpec {
   MotionSpec motion;                           // Driven
 };
 
+// An external load on a dynamic body of the bodies list, applied at the body's frame origin,
+// world frame, linear in time (a ramp, or a constant with zero rates):
+//   F(t) = force + force_rate t,   T(t) = torque + torque_rate t   (2D: z components only).
+struct LoadSpec {
+  std::string body;
+  Vector3 force = Vector3::Zero(), force_rate = Vector3::Zero();
+  Vector3 torque = Vector3::Zero(), torque_rate = Vector3::Zero();
+};
+
 struct UrdfSpec {
   std::string file;
   std::string prefix;
@@ -67,6 +76,7 @@ struct SceneSpec {
   std::vector<ContactLawSpec> laws;
   std::vector<BodySpec> bodies;
   std::vector<UrdfSpec> urdfs;
+  std::vector<LoadSpec> loads;
   DetectionSettings detection;
   // Bodies that overlap by more than this at t = 0 (m) are an input error: a run would start
   // with an O(1) push-out or a silently wrong state. < 0: no check.

@@ -162,7 +162,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;
   if (files && snapshots) vtk = std::make_unique<VtkSeries>(scene, options.out_dir);
 
-  TimeStepper stepper(scene.model, scene.cmodel, settings.scheme);
+  TimeStepper stepper(scene.model, scene.cmodel, settings.scheme, scene.forces);
   stepper.reset(0.0, scene.q0, scene.v0);
 
   RunSummary summary;

@@ -55,7 +55,7 @@ class SceneParser {
   void parse(const YamlField& root) {
     root.requireMap();
     root.allowOnly({"dimension", "gravity", "materials", "contact", "bodies", "generators", "urdf",
-                    "detection", "scheme", "time", "output"});
+                    "loads", "detection", "scheme", "time", "output"});
     SceneSpec& spec = out_.spec;
     spec.source = path_;
     if (!root.has("dimension")) root["dimension"].fail("is required (2 or 3)");
@@ -75,6 +75,7 @@ class SceneParser {
         spec.bodies.push_back(parseBody(bodies.at(i)));
     }
     if (root.has("urdf")) parseUrdfs(root["urdf"]);
+    if (root.has("loads")) parseLoads(root["loads"]);
     if (root.has("detection")) parseDetection(root["detection"]);
     if (root.has("scheme")) parseScheme(root["scheme"]);
     if (root.has("time")) parseTime(root["time"]);
@@ -463,6 +464,31 @@ class SceneParser {
     }
   }
 
+  // loads: a force and a torque on a dynamic body, each a constant plus a rate (a ramp)
+  void parseLoads(const YamlField& list) {
+    list.requireSequence();
+    const int dim = out_.spec.dimension;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const YamlField f = list.at(i);
+      f.allowOnly({"body", "force", "force_rate", "torque", "torque_rate"});
+      LoadSpec load;
+      load.body = f["body"].text();
+      bool found = false;
+      for (const BodySpec& b : out_.spec.bodies)
+        found = found || (b.name == load.body && b.kind == BodySpec::Kind::Dynamic);
+      if (!found) f["body"].fail("no dynamic body of this name under bodies");
+      if (f.has("force")) load.force = f["force"].vector(dim);
+      if (f.has("force_rate")) load.force_rate = f["force_rate"].vector(dim);
+      auto torque = [&](const char* key, Vector3& out) {
+        if (!f.has(key)) return;
+        out = dim == 2 ? Vector3(0, 0, f[key].number()) : f[key].vector(3);
+      };
+      torque("torque", load.torque);
+      torque("torque_rate", load.torque_rate);
+      out_.spec.loads.push_back(load);
+    }
+  }
+
   void parseDetection(const YamlField& f) {
     f.allowOnly({"path", "speed_factor", "margin", "self_collision", "max_initial_overlap"});
     DetectionSettings& d = out_.spec.detection;
@@ -783,6 +809,27 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+
+  if (!spec.loads.empty()) {
+    out << YAML::Key << "loads" << YAML::Value << YAML::BeginSeq;
+    for (const LoadSpec& l : spec.loads) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "body" << YAML::Value << l.body;
+      out << YAML::Key << "force" << YAML::Value;
+      emitVector(out, l.force, dim);
+      out << YAML::Key << "force_rate" << YAML::Value;
+      emitVector(out, l.force_rate, dim);
+      for (const auto& [key, torque] : {std::pair<const char*, const Vector3&>{"torque", l.torque},
+                                        {"torque_rate", l.torque_rate}}) {
+        out << YAML::Key << key << YAML::Value;
+        if (dim == 2)
+          out << torque.z();
+        else
+          emitVector(out, torque, 3);
+      }
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
 
   const SchemeSettings& s = scene.run.scheme;
   out << YAML::Key << "scheme" << YAML::Value << YAML::BeginMap;

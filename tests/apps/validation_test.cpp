@@ -17,7 +17,7 @@ struct ExampleRun {
   ExampleRun(const std::string& name, Scheme scheme, const std::vector<std::string>& overrides = {})
       : file(load(name, scheme, overrides)),
         scene(buildSceneFile(file)),
-        stepper(scene.model, scene.cmodel, file.run.scheme) {
+        stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces) {
     stepper.reset(0.0, scene.q0, scene.v0);
   }
   static SceneFile load(const std::string& name, Scheme scheme,
@@ -313,6 +313,41 @@ TEST_P(Archetypes, UrdfArmOnTableRespectsItsLimits) {
   if (GetParam() == Scheme::MoreauJean) {
     EXPECT_LT(worst, 1e-9);
   }
+}
+
+// V3 from examples/archetypes/ramp_force.yaml: under F = k t the block sticks exactly (no
+// creep: stick is a solved state, not a slow slide) until the first step whose midpoint
+// force exceeds mu m g, step ceil(t* / h + 1/2) (the reference's ceil(t* / h) +- 1), and then
+// slides with acceleration (k t_m - mu m g) / m in every step, exact for the discrete scheme
+// (constant forces within a step), so to round-off. The first two steps are left out: the
+// block starts exactly tangent, so the first step is a free step (see V4 above).
+TEST_P(Archetypes, RampForceExampleSticksThenSlides) {
+  ExampleRun run("ramp_force", GetParam());
+  TimeStepper& stepper = run.stepper;
+  const double h = run.file.run.scheme.h, k = 12.0, mu = 0.5, m = 1.0, g = 9.81;
+  const double t_star = mu * m * g / k;
+  const long expected = static_cast<long>(std::ceil(t_star / h + 0.5));
+  stepper.step();
+  stepper.step();
+  long first_sliding = 0;
+  double worst = 0.0;
+  while (stepper.time() < run.file.run.t_end - 0.5 * h) {
+    const double before = stepper.v()[0];
+    const double t_m = stepper.time() + 0.5 * h;
+    stepper.step();
+    if (first_sliding == 0) {
+      if (std::abs(stepper.v()[0]) > 1e-12)
+        first_sliding = stepper.stats().step;
+      else
+        continue;
+    }
+    // from the step after the first sliding one, whose start velocity is still zero
+    if (stepper.stats().step > first_sliding)
+      worst = std::max(worst, std::abs((stepper.v()[0] - before) / h - (k * t_m - mu * m * g) / m));
+  }
+  EXPECT_EQ(first_sliding, expected);
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_GT(stepper.v()[0], 0.0);
 }
 
 // V10's reference (CVODE with root finding, exact impact law, persistent contacts): over
