@@ -10,21 +10,6 @@ namespace sweep {
 
 namespace {
 
-UnilateralConstraint bouncingBallFloor(const Scene& scene,
-                                       const BouncingBallParameters& parameters) {
-  UnilateralConstraint floor;
-  const double radius = parameters.radius;
-  floor.gap = [radius](const VectorX& q) { return q[2] - radius; };
-  const Eigen::Index nv = scene.model.nv;
-  floor.normal = [nv](const VectorX&) {
-    VectorX w = VectorX::Zero(nv);
-    w[2] = 1.0;
-    return w;
-  };
-  floor.restitution = parameters.restitution;
-  return floor;
-}
-
 std::vector<UnilateralConstraint> wallPendulumConstraints(const WallPendulumParameters& p) {
   const double l1 = p.l1, l2 = p.l2;
   UnilateralConstraint upper, lower;
@@ -56,6 +41,17 @@ double totalEnergy(const Model& model, Data& data, const VectorX& q, const Vecto
   return kineticEnergy(model, data) + potentialEnergy(model, data);
 }
 
+// the validation runs solve to 1e-12, so that the error measured is the scheme's, not the
+// solver's
+SchemeSettings tightSettings(Scheme scheme, double h) {
+  SchemeSettings settings;
+  settings.scheme = scheme;
+  settings.h = h;
+  settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
+      1e-12;
+  return settings;
+}
+
 // sample count of t_end / interval, checked to be a whole number
 long wholeRatio(double a, double b, const char* what) {
   const double ratio = a / b;
@@ -66,6 +62,17 @@ long wholeRatio(double a, double b, const char* what) {
 }
 
 }  // namespace
+
+std::vector<ConvergencePoint> convergenceStudy(const std::vector<double>& steps,
+                                               const std::function<double(double h)>& error) {
+  std::vector<ConvergencePoint> points;
+  for (double h : steps) {
+    ConvergencePoint point{h, error(h), 0.0};
+    if (!points.empty()) point.order = std::log2(points.back().error / point.error);
+    points.push_back(point);
+  }
+  return points;
+}
 
 double fittedOrder(const std::vector<ConvergencePoint>& points) {
   double mx = 0.0, my = 0.0;
@@ -83,10 +90,24 @@ double fittedOrder(const std::vector<ConvergencePoint>& points) {
   return sxy / sxx;
 }
 
+std::vector<UnilateralConstraint> bouncingBallConstraints(
+    const BouncingBallParameters& parameters) {
+  UnilateralConstraint floor;
+  const double radius = parameters.radius;
+  floor.gap = [radius](const VectorX& q) { return q[2] - radius; };
+  floor.normal = [](const VectorX& q) {
+    VectorX w = VectorX::Zero(q.size() - 1);  // free body: nq = 7, nv = 6
+    w[2] = 1.0;
+    return w;
+  };
+  floor.restitution = parameters.restitution;
+  return {floor};
+}
+
 std::vector<double> bouncingBallReferenceImpacts(const BouncingBallParameters& parameters,
                                                  double t_end) {
   const Scene scene = bouncingBall(parameters);
-  EventDrivenReference reference(scene.model, {bouncingBallFloor(scene, parameters)});
+  EventDrivenReference reference(scene.model, bouncingBallConstraints(parameters));
   reference.reset(0.0, scene.q0, scene.v0);
   reference.advanceTo(t_end);
   std::vector<double> times;
@@ -102,21 +123,16 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
   const long samples = wholeRatio(t_end, sample_interval, "t_end / sample_interval");
   std::vector<double> reference_height(samples + 1);
   {
-    EventDrivenReference reference(scene.model, {bouncingBallFloor(scene, parameters)});
+    EventDrivenReference reference(scene.model, bouncingBallConstraints(parameters));
     reference.reset(0.0, scene.q0, scene.v0);
     for (long j = 0; j <= samples; ++j) {
       reference.advanceTo(static_cast<double>(j) * sample_interval);
       reference_height[j] = reference.q()[2];
     }
   }
-  std::vector<ConvergencePoint> points;
-  for (double h : steps) {
+  return convergenceStudy(steps, [&](double h) {
     const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
-    SchemeSettings settings;
-    settings.scheme = scheme;
-    settings.h = h;
-    settings.coulomb.tolerance = settings.normal_stage.tolerance = 1e-12;
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
     stepper.reset(0.0, scene.q0, scene.v0);
     double sum2 = 0.0;
     for (long j = 1; j <= samples; ++j) {
@@ -124,23 +140,14 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
       const double d = stepper.q()[2] - reference_height[j];
       sum2 += d * d;
     }
-    const double error = std::sqrt(sum2 / static_cast<double>(samples));
-    ConvergencePoint point{h, error, 0.0};
-    if (!points.empty()) point.order = std::log2(points.back().error / error);
-    points.push_back(point);
-  }
-  return points;
+    return std::sqrt(sum2 / static_cast<double>(samples));
+  });
 }
 
 RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
                                       double h) {
   const Scene scene = rockingBlock(parameters);
-  SchemeSettings settings;
-  settings.scheme = scheme;
-  settings.h = h;
-  settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
-      1e-12;
-  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
   stepper.reset(0.0, scene.q0, scene.v0);
   // the bottom-left corner (-b, -c) is the one that hits the floor first
   // (its x in world: explicit components, which GCC 12's dangling-pointer check accepts)
@@ -170,6 +177,7 @@ WallPendulumReference wallPendulumReference(const WallPendulumParameters& parame
   for (long j = 0; j <= samples; ++j) {
     reference.advanceTo(static_cast<double>(j) * sample_interval);
     out.q.push_back(reference.q());
+    out.v.push_back(reference.v());
   }
   out.energy_end = totalEnergy(scene.model, data, reference.q(), reference.v());
   out.impacts = reference.impacts();
@@ -184,26 +192,57 @@ std::vector<ConvergencePoint> wallPendulumConvergence(const WallPendulumParamete
   const Scene scene = wallPendulum(parameters);
   const WallPendulumReference reference = wallPendulumReference(parameters, t_end, sample_interval);
   const long samples = static_cast<long>(reference.q.size()) - 1;
-  std::vector<ConvergencePoint> points;
-  for (double h : steps) {
+  return convergenceStudy(steps, [&](double h) {
     const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
-    SchemeSettings settings;
-    settings.scheme = scheme;
-    settings.h = h;
-    settings.coulomb.tolerance = settings.normal_stage.tolerance = 1e-12;
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
+    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
     stepper.reset(0.0, scene.q0, scene.v0);
     double sum2 = 0.0;
     for (long j = 1; j <= samples; ++j) {
       for (long k = 0; k < per_sample; ++k) stepper.step();
       sum2 += (stepper.q() - reference.q[j]).squaredNorm();
     }
-    const double error = std::sqrt(sum2 / static_cast<double>(samples));
-    ConvergencePoint point{h, error, 0.0};
-    if (!points.empty()) point.order = std::log2(points.back().error / error);
-    points.push_back(point);
-  }
-  return points;
+    return std::sqrt(sum2 / static_cast<double>(samples));
+  });
+}
+
+std::vector<ConvergencePoint> rampForceConvergence(const SceneFile& file, Scheme scheme,
+                                                   const std::vector<double>& steps, double k,
+                                                   double mu, double mass) {
+  const Scene scene = buildSceneFile(file);
+  const double t_end = file.run.t_end, g = -file.spec.gravity.y();
+  const double t_star = mu * mass * g / k;
+  const double exact = k * std::pow(t_end - t_star, 3) / (6.0 * mass);
+  return convergenceStudy(steps, [&](double h) {
+    const long count = wholeRatio(t_end, h, "t_end / h");
+    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h), scene.forces);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    for (long n = 0; n < count; ++n) stepper.step();
+    return std::abs(stepper.q()[0] - scene.q0[0] - exact);
+  });
+}
+
+std::vector<ConvergencePoint> rockingBlockConvergence(const RockingBlockParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps) {
+  return convergenceStudy(steps, [&](double h) {
+    return std::abs(rockingBlockFirstImpact(parameters, scheme, h).ratio -
+                    housnerRatio(parameters));
+  });
+}
+
+std::vector<ConvergencePoint> painleveJamConvergence(const SceneFile& file,
+                                                     const std::vector<double>& steps) {
+  const Scene scene = buildSceneFile(file);
+  return convergenceStudy(steps, [&](double h) {
+    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(Scheme::MoreauJean, h),
+                        scene.forces);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    stepper.step();
+    if (stepper.impulses().size() != 1)
+      throw std::runtime_error("V7: expected one contact in the first step");
+    const Vector3& P = stepper.impulses()[0];
+    return std::hypot(P.x() - 0.3, std::abs(P.y()) - 0.4);
+  });
 }
 
 }  // namespace sweep

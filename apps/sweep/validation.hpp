@@ -2,7 +2,10 @@
 // Convergence studies of the validation cases against their references (issue #7,
 // docs/validation.md): the error of each scheme's trajectory as h is halved, and the
 // observed order. Shared by the tests and bench/validation_convergence.
+#include <functional>
 #include <vector>
+
+#include "apps/sweep/scene_file.hpp"
 
 #include "integrators/event_driven.hpp"
 #include "integrators/time_stepper.hpp"
@@ -16,6 +19,10 @@ struct ConvergencePoint {
   double order = 0.0;  // log2(error(2h) / error(h)); 0 for the coarsest h
 };
 
+// error(h) for each h, with the local orders log2(error(2h) / error(h)).
+std::vector<ConvergencePoint> convergenceStudy(const std::vector<double>& steps,
+                                               const std::function<double(double h)>& error);
+
 // Least-squares slope of log2(error) against log2(h): the observed order over all points.
 // The local orders of an impact problem scatter (where an impact falls inside a step
 // changes the error by up to a step's worth), so the fit is the number to judge.
@@ -28,6 +35,9 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
                                                       Scheme scheme,
                                                       const std::vector<double>& steps,
                                                       double t_end, double sample_interval);
+
+// V1's floor as the event-driven reference's constraint: gap q_z - r, normal e_z.
+std::vector<UnilateralConstraint> bouncingBallConstraints(const BouncingBallParameters& parameters);
 
 // The event-driven reference's impact times of V1 up to t_end.
 std::vector<double> bouncingBallReferenceImpacts(const BouncingBallParameters& parameters,
@@ -47,7 +57,7 @@ RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, 
 // th1 = q1, th2 = q1 + q2), sampled at j * sample_interval up to t_end: joint angles per
 // sample, and the impacts and persistent-contact phases it went through.
 struct WallPendulumReference {
-  std::vector<VectorX> q;  // samples j = 0 .. t_end / sample_interval
+  std::vector<VectorX> q, v;  // samples j = 0 .. t_end / sample_interval
   std::vector<Impact> impacts;
   std::vector<ContactPhase> phases;
   double energy_start = 0.0, energy_end = 0.0;
@@ -60,5 +70,23 @@ std::vector<ConvergencePoint> wallPendulumConvergence(const WallPendulumParamete
                                                       Scheme scheme,
                                                       const std::vector<double>& steps,
                                                       double t_end, double sample_interval);
+
+// V3 from a scene file like examples/archetypes/ramp_force.yaml (a block pushed by
+// F = k t along x, friction mu, mass m): |x_h(t_end) - x(t_end)| against the exact
+// x(t) = k (t - t*)^3 / (6 m), t* = mu m g / k. First order: the onset is quantized to a
+// step.
+std::vector<ConvergencePoint> rampForceConvergence(const SceneFile& file, Scheme scheme,
+                                                   const std::vector<double>& steps, double k,
+                                                   double mu, double mass);
+
+// V5: |omega+ / omega- - (1 - 3/2 sin^2 s)| at the first corner impact of the rocking block.
+std::vector<ConvergencePoint> rockingBlockConvergence(const RockingBlockParameters& parameters,
+                                                      Scheme scheme,
+                                                      const std::vector<double>& steps);
+
+// V7 from examples/archetypes/painleve_rod.yaml, Jean-Moreau only: the jam impulse of the
+// first step, |(P_N, |P_T|) - (0.3, 0.4)|, against its h -> 0 limit (gravity adds O(h)).
+std::vector<ConvergencePoint> painleveJamConvergence(const SceneFile& file,
+                                                     const std::vector<double>& steps);
 
 }  // namespace sweep
