@@ -45,6 +45,15 @@ int main() {
     print("V10_wall_pendulum", scheme,
           wallPendulumConvergence(WallPendulumParameters{}, scheme, halved(5e-4, 4), 5.0, 0.01));
   }
+  // V11 has no reference solution: self-convergence of the crank's angle at 0.2 s against a
+  // run at h = 1.25e-6
+  for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
+    const SliderCrankParameters crank;
+    const double finest = sliderCrankRun(crank, scheme, 1.25e-6, 0.2).theta[0];
+    print("V11_slider_crank", scheme, convergenceStudy(halved(2e-5, 3), [&](double h) {
+            return std::abs(sliderCrankRun(crank, scheme, h, 0.2).theta[0] - finest);
+          }));
+  }
   print("V7_painleve_jam", Scheme::MoreauJean,
         painleveJamConvergence(example("painleve_rod"), halved(1e-3, 4)));
   return 0;

@@ -166,7 +166,10 @@ void TimeStepper::solveMoreauJean() {
   stats_.updates = s.updates;
   stats_.residual = s.residual;
   stats_.status = s.status;
-  stats_.cap_hit = s.status == SolverStatus::MaxIterations;
+  // a solve that used every sweep is a cap hit even when its residual passes at the end
+  // (velocities converged, impulses still moving among redundant rows): users count these
+  stats_.cap_hit =
+      s.iterations >= settings_.coulomb.max_iterations || s.status == SolverStatus::MaxIterations;
   stats_.local_failures = s.local_failures;
   stats_.kinetic_stage1 = stats_.kinetic_solved = metricKinetic(v);
   stats_.t_solve = seconds(start);
@@ -203,7 +206,8 @@ void TimeStepper::solveCatchingUp() {
   stats_.updates = normal.updates;
   stats_.residual = normal.residual;
   stats_.status = normal.status;
-  stats_.cap_hit = normal.status == SolverStatus::MaxIterations;
+  stats_.cap_hit = normal.iterations >= settings_.normal_stage.max_iterations ||
+                   normal.status == SolverStatus::MaxIterations;
   stats_.iterations_stage2 = 0;
   stats_.kinetic_stage1 = metricKinetic(v);
   // 5b: friction with frozen thresholds, skipped when no contact can have friction
@@ -214,7 +218,9 @@ void TimeStepper::solveCatchingUp() {
     stats_.iterations_stage2 = friction.iterations;
     stats_.updates += friction.updates;
     stats_.residual = std::max(stats_.residual, friction.residual);
-    stats_.cap_hit = stats_.cap_hit || friction.status == SolverStatus::MaxIterations;
+    stats_.cap_hit = stats_.cap_hit ||
+                     friction.iterations >= settings_.friction_stage.max_iterations ||
+                     friction.status == SolverStatus::MaxIterations;
     if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
   } else {
     std::fill(delta_.begin(), delta_.end(), 0.0);

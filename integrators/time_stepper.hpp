@@ -59,7 +59,7 @@ struct StepStats {
   int islands = 0;            // independent groups of contacts, solved one by one
   long updates = 0;           // local solves, all stages, islands and sweeps
   double residual = 0.0;      // largest exit residual of the stages
-  bool cap_hit = false;
+  bool cap_hit = false;       // a stage used all its sweeps; `status` says if it converged anyway
   SolverStatus status = SolverStatus::Converged;
   int local_failures = 0;
   double penetration_max = 0.0;  // max over contacts of max(0, -g(q_{k+1}))

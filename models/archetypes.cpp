@@ -94,4 +94,45 @@ Scene wallPendulum(const WallPendulumParameters& p) {
   return scene;
 }
 
+Scene sliderCrank(const SliderCrankParameters& p) {
+  ModelBuilder mb("slider-crank with clearance");
+  mb.setGravity(Vector3(0.0, -p.gravity, 0.0));
+  // each link's inertia about its centre; only the z moment acts in the plane
+  auto link = [](double mass, const Vector3& com, double J) {
+    Inertia in;
+    in.mass = mass;
+    in.com = com;
+    in.inertia_com = J * Matrix3::Identity();
+    return in;
+  };
+  Pose at_crank_pin, at_rod_end;
+  at_crank_pin.translation = Vector3(p.l1, 0.0, 0.0);
+  at_rod_end.translation = Vector3(p.l2, 0.0, 0.0);
+  const int crank = mb.addBody(-1, "crank joint", Joint::revolute(Vector3::UnitZ()), Pose{},
+                               link(p.m1, Vector3(0.5 * p.l1, 0, 0), p.J1), "crank");
+  const int rod = mb.addBody(crank, "crank pin", Joint::revolute(Vector3::UnitZ()), at_crank_pin,
+                             link(p.m2, Vector3(0.5 * p.l2, 0, 0), p.J2), "rod");
+  mb.addBody(rod, "piston pin", Joint::revolute(Vector3::UnitZ()), at_rod_end,
+             link(p.m3, Vector3::Zero(), p.J3), "slider");
+  Scene scene;
+  scene.model = mb.build();
+  ContactModelBuilder cb(scene.model);
+  cb.materials().setDefaultLaw({p.friction, p.restitution});
+  const double a = 0.5 * p.slider_length, b = 0.5 * p.slider_width;
+  cb.addGeometry("slider", BodyRef::dynamic(2), Pose::identity(),
+                 Shape::polygon({{-a, -b}, {a, -b}, {a, b}, {-a, b}}));
+  const double half_gap = b + p.clearance;
+  Pose lower, upper;  // half-planes: outward normal local +y
+  lower.translation = Vector3(0.0, -half_gap, 0.0);
+  upper.translation = Vector3(0.0, half_gap, 0.0);
+  upper.rotation = Eigen::AngleAxisd(M_PI, Vector3::UnitZ()).toRotationMatrix();
+  cb.addGeometry("lower guide", BodyRef::world(), lower, Shape::halfPlane());
+  cb.addGeometry("upper guide", BodyRef::world(), upper, Shape::halfPlane());
+  scene.cmodel = cb.build();
+  scene.q0 = VectorX::Zero(3);
+  // relative joint rates from the absolute ones
+  scene.v0 = Vector3(p.omega[0], p.omega[1] - p.omega[0], p.omega[2] - p.omega[1]);
+  return scene;
+}
+
 }  // namespace sweep

@@ -245,4 +245,30 @@ std::vector<ConvergencePoint> painleveJamConvergence(const SceneFile& file,
   });
 }
 
+SliderCrankRun sliderCrankRun(const SliderCrankParameters& parameters, Scheme scheme, double h,
+                              double t_end) {
+  const Scene scene = sliderCrank(parameters);
+  SchemeSettings settings = tightSettings(scheme, h);
+  // 1e-10: the impulses here are ~1e-3 N s; 1e-12 would only add sweeps
+  settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
+      1e-10;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  SliderCrankRun run;
+  run.energy_start = run.energy_highest = stepper.energy();
+  const long count = wholeRatio(t_end, h, "t_end / h");
+  for (long k = 0; k < count; ++k) {
+    const StepStats& stats = stepper.step();
+    run.energy_highest = std::max(run.energy_highest, stepper.energy());
+    run.contact_work += stats.work_normal + stats.work_tangent;
+    run.contact_steps += stats.active > 0;
+    run.cap_hits += stats.cap_hit;
+    run.penetration_max = std::max(run.penetration_max, stats.penetration_max);
+  }
+  run.energy_end = stepper.energy();
+  const VectorX& q = stepper.q();
+  run.theta = Vector3(q[0], q[0] + q[1], q[0] + q[1] + q[2]);
+  return run;
+}
+
 }  // namespace sweep

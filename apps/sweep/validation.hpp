@@ -89,4 +89,18 @@ std::vector<ConvergencePoint> rockingBlockConvergence(const RockingBlockParamete
 std::vector<ConvergencePoint> painleveJamConvergence(const SceneFile& file,
                                                      const std::vector<double>& steps);
 
+// V11: one run of the slider-crank with clearance to t_end: the absolute angles at the end,
+// the energy (start, end, highest along the way), the work of the contact impulses summed
+// over the steps (reference 5.3: it balances the energy change up to O(h)), and what the
+// solver went through.
+struct SliderCrankRun {
+  Vector3 theta = Vector3::Zero();
+  double energy_start = 0.0, energy_end = 0.0, energy_highest = 0.0;
+  double contact_work = 0.0;
+  long contact_steps = 0, cap_hits = 0;
+  double penetration_max = 0.0;
+};
+SliderCrankRun sliderCrankRun(const SliderCrankParameters& parameters, Scheme scheme, double h,
+                              double t_end);
+
 }  // namespace sweep
