@@ -135,4 +135,64 @@ Scene sliderCrank(const SliderCrankParameters& p) {
   return scene;
 }
 
+Scene woodpecker(const WoodpeckerParameters& p) {
+  ModelBuilder mb("woodpecker toy");
+  mb.setGravity(Vector3(0.0, -p.gravity, 0.0));
+  auto inertia = [](double mass, const Vector3& com, double J) {
+    Inertia in;
+    in.mass = mass;
+    in.com = com;
+    in.inertia_com = J * Matrix3::Identity();
+    return in;
+  };
+  const int carriage = mb.addBody(-1, "pole slide", Joint::prismatic(Vector3::UnitY()), Pose{},
+                                  Inertia::zero(), "carriage");
+  const int sleeve = mb.addBody(carriage, "sleeve tilt", Joint::revolute(Vector3::UnitZ()), Pose{},
+                                inertia(p.mM, Vector3::Zero(), p.JM), "sleeve");
+  Pose spring;
+  spring.translation = Vector3(p.lM, 0.0, 0.0);
+  const int bird = mb.addBody(sleeve, "spring", Joint::revolute(Vector3::UnitZ()), spring,
+                              inertia(p.mS, Vector3(p.lG, 0.0, 0.0), p.JS), "bird");
+  Scene scene;
+  scene.model = mb.build();
+  ContactModelBuilder cb(scene.model);
+  MaterialTable& materials = cb.materials();
+  const int beak = materials.add("beak"), sleeve_edge = materials.add("sleeve"),
+            pole = materials.add("pole");
+  materials.setDefaultLaw({p.friction, 0.0});
+  materials.setLaw(beak, pole, {p.friction, p.e_beak});
+  materials.setLaw(sleeve_edge, pole, {p.friction, p.e_sleeve});
+  const double r = p.point_radius;
+  auto point = [&](double x, double y) {
+    Pose at;
+    at.translation = Vector3(x + r, y, 0.0);
+    return at;
+  };
+  cb.addGeometry("sleeve lower edge", BodyRef::dynamic(sleeve), point(p.rM, -p.hM), Shape::disk(r),
+                 sleeve_edge);
+  cb.addGeometry("sleeve upper edge", BodyRef::dynamic(sleeve), point(p.rM, p.hM), Shape::disk(r),
+                 sleeve_edge);
+  cb.addGeometry("beak", BodyRef::dynamic(bird), point(p.lG - p.lS, p.hS), Shape::disk(r), beak);
+  Pose face;  // the half-plane's outward normal, local +y, turned to +x
+  face.rotation = Eigen::AngleAxisd(-0.5 * M_PI, Vector3::UnitZ()).toRotationMatrix();
+  face.translation = Vector3(p.r0, 0.0, 0.0);
+  cb.addGeometry("pole", BodyRef::world(), face, Shape::halfPlane(), pole);
+  scene.cmodel = cb.build();
+  // the sleeve starts jammed on its lower edge: solve rM cos(phi) + hM sin(phi) for the edge
+  // position the linear model gives, rM + hM phi_M0, so that the start gap is Glocker's
+  // (-9e-7 m) and not the -1.6e-5 m the cosine would add
+  const double target = p.rM + p.hM * p.q0[1];
+  double phi_M = p.q0[1];
+  for (int k = 0; k < 20; ++k)
+    phi_M -= (p.rM * std::cos(phi_M) + p.hM * std::sin(phi_M) - target) /
+             (-p.rM * std::sin(phi_M) + p.hM * std::cos(phi_M));
+  scene.q0 = Vector3(p.q0[0], phi_M, p.q0[2] - phi_M);
+  scene.v0 = Vector3(p.v0[0], p.v0[1], p.v0[2] - p.v0[1]);
+  const double c = p.c_phi;
+  scene.forces = [c](double, const VectorX& q, const VectorX&, VectorX& tau) {
+    tau[2] -= c * q[2];
+  };
+  return scene;
+}
+
 }  // namespace sweep

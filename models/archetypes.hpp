@@ -71,4 +71,30 @@ struct SliderCrankParameters {
 };
 Scene sliderCrank(const SliderCrankParameters& parameters);
 
+// V9, the woodpecker toy (Pfeiffer & Glocker 1996, "Multibody Dynamics with Unilateral
+// Contacts"; the parameters of Glocker's thesis, 1995, as in the Siconos example): a sleeve
+// (M) slides down a pole of radius r0 with play (inner radius rM, half-height hM); a bird (S)
+// hangs from it on a torsion spring c_phi at horizontal distance lM from the pole axis, its
+// centre of mass lG further out, its beak at (-lS, hS) from its centre of mass. Coordinates
+// q = (y, phi_M, phi_S - phi_M): a prismatic joint along y, then revolute joints about z at
+// the sleeve centre and at the spring (relative angles, so the spring acts on q[2] alone).
+// Three contacts, all with the pole's right face x = r0 (mu = 0.3): the beak (e = 0.5) and
+// the sleeve's two right inner edges at (rM, +-hM) (e = 0), each a point (a disk of radius
+// `point_radius` whose leftmost point is the contact point). Glocker's model is the
+// linearization of this one about zero angles: its gaps rM - r0 -+ hM phi_M and
+// lM + lG - lS - r0 - hS phi_S are ours to first order; here gravity and inertia keep their
+// sines and cosines (the angles reach 0.3 rad, so they differ by a few percent).
+struct WoodpeckerParameters {
+  double r0 = 0.0025, rM = 0.0031, hM = 0.0058, lM = 0.010, lG = 0.015, hS = 0.02, lS = 0.0201;
+  double mM = 0.0003, mS = 0.0045, JM = 5.0e-9, JS = 7.0e-7;
+  double c_phi = 0.0056;  // N m / rad
+  double gravity = 9.81;
+  double e_beak = 0.5, e_sleeve = 0.0, friction = 0.3;
+  double point_radius = 1e-5;
+  // the Siconos initial state: y, phi_M, phi_S and their rates
+  Vector3 q0 = Vector3(0.0, -0.1036, -0.2788);
+  Vector3 v0 = Vector3(-0.3411, 0.0, -7.4583);
+};
+Scene woodpecker(const WoodpeckerParameters& parameters);
+
 }  // namespace sweep

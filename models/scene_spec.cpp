@@ -174,7 +174,21 @@ namespace {
 // at the origin enters as it is and a torque as its z (2D) or its body-frame components.
 std::function<void(double, const VectorX&, const VectorX&, VectorX&)> sceneLoads(
     const SceneSpec& spec, const Model& model) {
-  if (spec.loads.empty()) return {};
+  struct Spring {
+    int q_index, v_index;
+    double stiffness, rest;
+  };
+  std::vector<Spring> springs;
+  for (std::size_t u = 0; u < spec.urdfs.size(); ++u)
+    for (const UrdfSpec::JointSpring& s : spec.urdfs[u].joint_springs) {
+      const Body& b = model.bodies[model.jointIndex(spec.urdfs[u].prefix + s.joint)];
+      if (b.joint.nv() != 1)
+        throw InputError(spec.source + ": urdf[" + std::to_string(u) + "].joint_springs." +
+                         s.joint + ": the joint has " + std::to_string(b.joint.nv()) +
+                         " velocities; springs act on 1-dof joints");
+      springs.push_back({b.q_index, b.v_index, s.stiffness, s.rest});
+    }
+  if (spec.loads.empty() && springs.empty()) return {};
   struct Applied {
     LoadSpec load;
     int v_index, q_index;
@@ -192,7 +206,8 @@ std::function<void(double, const VectorX&, const VectorX&, VectorX&)> sceneLoads
     applied.push_back({load, b.v_index, b.q_index});
   }
   const bool planar = spec.dimension == 2;
-  return [applied, planar](double t, const VectorX& q, const VectorX&, VectorX& tau) {
+  return [applied, springs, planar](double t, const VectorX& q, const VectorX&, VectorX& tau) {
+    for (const Spring& s : springs) tau[s.v_index] -= s.stiffness * (q[s.q_index] - s.rest);
     for (const Applied& a : applied) {
       const Vector3 force = a.load.force + t * a.load.force_rate;
       const Vector3 torque = a.load.torque + t * a.load.torque_rate;

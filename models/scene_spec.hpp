@@ -65,6 +65,12 @@ struct UrdfSpec {
   std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
   std::string material;  // of every link's collisions, unless link_materials names the link
   std::vector<std::pair<std::string, std::string>> link_materials;  // (link, material)
+  // linear springs on 1-dof joints: torque (or force) -stiffness (q - rest)
+  struct JointSpring {
+    std::string joint;
+    double stiffness = 0.0, rest = 0.0;
+  };
+  std::vector<JointSpring> joint_springs;
 };
 
 struct SceneSpec {

@@ -433,7 +433,7 @@ class SceneParser {
     for (std::size_t i = 0; i < list.size(); ++i) {
       const YamlField f = list.at(i);
       f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
-                   "material", "link_materials"});
+                   "material", "link_materials", "joint_springs"});
       UrdfSpec u;
       u.file = resolve(path_, f["file"].text());
       if (!fs::exists(u.file)) f["file"].fail("no such file (" + u.file + ")");
@@ -458,6 +458,18 @@ class SceneParser {
           const std::string material = links[link].text();
           requireMaterial(links[link], material);
           u.link_materials.emplace_back(link, material);
+        }
+      }
+      if (f.has("joint_springs")) {
+        const YamlField springs = f["joint_springs"];
+        springs.requireMap();
+        for (const std::string& joint : springs.keys()) {
+          const YamlField spring = springs[joint];
+          spring.requireMap();
+          spring.allowOnly({"stiffness", "rest"});
+          if (!spring.has("stiffness")) spring["stiffness"].fail("is required");
+          u.joint_springs.push_back(
+              {joint, spring.nonNegative("stiffness", 0.0), spring.number("rest", 0.0)});
         }
       }
       out_.spec.urdfs.push_back(u);

@@ -271,4 +271,46 @@ SliderCrankRun sliderCrankRun(const SliderCrankParameters& parameters, Scheme sc
   return run;
 }
 
+WoodpeckerRun woodpeckerRun(const WoodpeckerParameters& parameters, Scheme scheme, double h,
+                            double t_end) {
+  const Scene scene = woodpecker(parameters);
+  SchemeSettings settings = tightSettings(scheme, h);
+  settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
+      1e-10;
+  TimeStepper stepper(scene.model, scene.cmodel, settings, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  // the stepper's energy has gravity; the spring's lives in the scene's forces
+  auto energy = [&] {
+    const double twist = stepper.q()[2];
+    return stepper.energy() + 0.5 * parameters.c_phi * twist * twist;
+  };
+  int beak = -1;
+  for (int g = 0; g < scene.cmodel.size(); ++g)
+    if (scene.cmodel.geometries[g].name == "beak") beak = g;
+  WoodpeckerRun run;
+  run.energy_start = energy();
+  double previous = run.energy_start;
+  const long count = wholeRatio(t_end, h, "t_end / h");
+  for (long k = 0; k < count; ++k) {
+    const StepStats& stats = stepper.step();
+    const double now = energy();
+    run.largest_step_rise = std::max(run.largest_step_rise, now - previous);
+    previous = now;
+    run.contact_work += stats.work_normal + stats.work_tangent;
+    run.cap_hits += stats.cap_hit;
+    const std::vector<Contact>& contacts = stepper.contactData().contacts;
+    for (std::size_t c = 0; c < stepper.impulses().size() && c < contacts.size(); ++c) {
+      const bool on_beak = contacts[c].key.geometry_a == beak || contacts[c].key.geometry_b == beak;
+      if (!on_beak || stepper.impulses()[c].x() <= 0.0) continue;
+      if (run.beak_times.empty() || stepper.time() - run.beak_times.back() > 5e-3) {
+        run.beak_times.push_back(stepper.time());
+        run.beak_heights.push_back(stepper.q()[0]);
+      }
+    }
+  }
+  run.energy_end = energy();
+  run.y_end = stepper.q()[0];
+  return run;
+}
+
 }  // namespace sweep

@@ -103,4 +103,18 @@ struct SliderCrankRun {
 SliderCrankRun sliderCrankRun(const SliderCrankParameters& parameters, Scheme scheme, double h,
                               double t_end);
 
+// V9: one run of the woodpecker toy to t_end: the beak impacts (time and height y of the
+// sleeve, one per cycle: impacts closer than 5 ms to the previous one belong to it), the
+// final y, and the energy account (kinetic + gravity + spring): its start and end, its
+// largest rise over one step, and the work of the contact impulses summed over the steps.
+struct WoodpeckerRun {
+  std::vector<double> beak_times, beak_heights;
+  double y_end = 0.0;
+  double energy_start = 0.0, energy_end = 0.0, largest_step_rise = 0.0;
+  double contact_work = 0.0;
+  long cap_hits = 0;
+};
+WoodpeckerRun woodpeckerRun(const WoodpeckerParameters& parameters, Scheme scheme, double h,
+                            double t_end);
+
 }  // namespace sweep
