@@ -17,7 +17,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 LABELS = {
     "V1_bouncing_ball": ("centre height z (m)", "vertical velocity (m/s)"),
     "V10_wall_pendulum": ("th1 (rad)", "th2 (rad)"),
+    "V9_woodpecker": ("sleeve height y (m)", "bird angle phi_S (rad)"),
+    "V11_slider_crank": ("crank rate (rad/s)", "slider centre height (m)"),
 }
+# cases whose second coordinate goes on a twin axis (different units or scale)
+TWIN = {"V1_bouncing_ball", "V9_woodpecker", "V11_slider_crank"}
 STYLES = {
     "reference": ("k-", "event-driven reference", 2.0),
     "moreau-jean": ("C0--", "Jean-Moreau", 1.2),
@@ -34,6 +38,7 @@ def main(argv):
     os.makedirs(argv[2], exist_ok=True)
     for case in sorted({r["case"] for r in rows}):
         fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.0), sharex=True)
+        twins = {}
         first, second = LABELS.get(case, ("x1", "x2"))
         for source, (style, label, width) in STYLES.items():
             mine = [r for r in rows if r["case"] == case and r["source"] == source]
@@ -41,6 +46,13 @@ def main(argv):
                 continue
             t = [float(r["t"]) for r in mine]
             axes[0].plot(t, [float(r["x1"]) for r in mine], style, lw=width, label=f"{label}: {first}")
+            if case in TWIN and case != "V1_bouncing_ball":
+                if case not in twins:  # one twin axis per figure
+                    twins[case] = axes[0].twinx()
+                twin = twins[case]
+                twin.plot(t, [float(r["x2"]) for r in mine], style[2:], lw=width * 0.6, alpha=0.5,
+                          color="C2" if source == "moreau-jean" else "C3")
+                twin.set_ylabel(second)
             if case == "V10_wall_pendulum":
                 axes[0].plot(t, [float(r["x2"]) for r in mine], style, lw=width * 0.7, alpha=0.6,
                              label=f"{label}: {second}")
