@@ -3,12 +3,15 @@
 // reference, moreau-jean, catching-up. V1: x1 = centre height, x2 = vertical velocity.
 // V10: x1, x2 = the absolute angles th1, th2. V9 (no reference): x1 = the sleeve's height y,
 // x2 = the bird's angle phi_S. V11 (no reference): x1 = the crank's rate, x2 = the slider
-// centre's height in its guide. impulse: the normal impulses of the steps since
-// the previous sample (the time-stepping schemes; empty for the reference).
-// Run: ./build/bench/validation_trajectories > traj.csv
+// centre's height in its guide. V3: x1 = the block's displacement, x2 = its speed (the
+// reference is the exact solution). V5: x1 = the block's angle, x2 = its angular velocity.
+// V7: x1 = the lower end's sliding speed, x2 = the rod's angle. impulse: the normal impulses of the
+// steps since the previous sample (the time-stepping schemes; empty for the reference). Run:
+// ./build/bench/validation_trajectories > traj.csv
 //      /usr/bin/python3 scripts/plot_trajectories.py traj.csv docs/figures/validation/
 #include <cstdio>
 #include <functional>
+#include <string>
 
 #include "apps/sweep/validation.hpp"
 #include "framework/energy.hpp"
@@ -87,6 +90,33 @@ int main() {
                   energyOf(scene.model, data, reference.q[j], reference.v[j]));
     }
     schemes("V10_wall_pendulum", scene, 5e-4, 5.0, 0.01, angles);
+  }
+  {  // V3 from its example, against x(t) = k (t - t*)^3 / (6 m)
+    const SceneFile file =
+        loadSceneFile(std::string(SWEEP_SOURCE_DIR) + "/examples/archetypes/ramp_force.yaml");
+    const Scene scene = buildSceneFile(file);
+    const double k = 12.0, mu = 0.5, m = 1.0, g = 9.81, t_star = mu * m * g / k;
+    for (long j = 0; j <= 100; ++j) {
+      const double t = 0.01 * static_cast<double>(j), s = std::max(t - t_star, 0.0);
+      std::printf("V3_ramp_force,reference,%.6f,%.9e,%.9e,,\n", t, k * s * s * s / (6.0 * m),
+                  k * s * s / (2.0 * m));
+    }
+    const double x0 = scene.q0[0];
+    schemes("V3_ramp_force", scene, 1e-3, 1.0, 0.01,
+            [x0](const VectorX& q, const VectorX& v) { return Eigen::Vector2d(q[0] - x0, v[0]); });
+  }
+  {  // V5 at h = 1e-4, mu = 1 (both schemes stick)
+    schemes("V5_rocking_block", rockingBlock(RockingBlockParameters{}), 1e-4, 2.0, 2e-3,
+            [](const VectorX& q, const VectorX& v) { return Eigen::Vector2d(q[2], v[2]); });
+  }
+  {  // V7 from its example, 0.05 s
+    const SceneFile file =
+        loadSceneFile(std::string(SWEEP_SOURCE_DIR) + "/examples/archetypes/painleve_rod.yaml");
+    const Scene scene = buildSceneFile(file);
+    // the lower end A's horizontal speed: xdot + l sin(th) thdot (l = 0.5)
+    schemes("V7_painleve_rod", scene, 1e-4, 0.05, 5e-4, [](const VectorX& q, const VectorX& v) {
+      return Eigen::Vector2d(v[0] + 0.5 * std::sin(q[2]) * v[2], q[2]);
+    });
   }
   {  // V9 at the Siconos step
     const WoodpeckerParameters parameters;

@@ -19,9 +19,13 @@ LABELS = {
     "V10_wall_pendulum": ("th1 (rad)", "th2 (rad)"),
     "V9_woodpecker": ("sleeve height y (m)", "bird angle phi_S (rad)"),
     "V11_slider_crank": ("crank rate (rad/s)", "slider centre height (m)"),
+    "V3_ramp_force": ("displacement x (m)", "speed (m/s)"),
+    "V5_rocking_block": ("tilt angle (rad)", "angular velocity (rad/s)"),
+    "V7_painleve_rod": ("sliding speed of the lower end (m/s)", "rod angle (rad)"),
 }
 # cases whose second coordinate goes on a twin axis (different units or scale)
-TWIN = {"V1_bouncing_ball", "V9_woodpecker", "V11_slider_crank"}
+TWIN = {"V1_bouncing_ball", "V9_woodpecker", "V11_slider_crank", "V3_ramp_force",
+        "V5_rocking_block", "V7_painleve_rod"}
 STYLES = {
     "reference": ("k-", "event-driven reference", 2.0),
     "moreau-jean": ("C0--", "Jean-Moreau", 1.2),
@@ -56,7 +60,8 @@ def main(argv):
             if case == "V10_wall_pendulum":
                 axes[0].plot(t, [float(r["x2"]) for r in mine], style, lw=width * 0.7, alpha=0.6,
                              label=f"{label}: {second}")
-            axes[1].plot(t, [float(r["energy"]) for r in mine], style, lw=width, label=label)
+            if all(r["energy"] for r in mine):  # an exact reference may have none
+                axes[1].plot(t, [float(r["energy"]) for r in mine], style, lw=width, label=label)
             if source != "reference":
                 axes[2].plot(t, [float(r["impulse"]) for r in mine], style, lw=width, label=label)
         axes[0].set_ylabel(first if case != "V10_wall_pendulum" else "absolute angles (rad)")
