@@ -202,7 +202,13 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;
-    if (stats.is_open()) appendStatsRow(stats, s, settings.output.timings);
+    if (stats.is_open()) {
+      appendStatsRow(stats, s, settings.output.timings);
+      // a full disk stops the run at once rather than computing results nobody gets
+      if (s.step % 1024 == 0 && !stats.flush())
+        throw std::runtime_error(stats_path + ".partial: cannot write at step " +
+                                 std::to_string(s.step) + " (disk full?)");
+    }
     if (vtk) {
       const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
       const bool interval = settings.output.vtk_interval > 0.0 && s.t >= next_snapshot - 1e-9 * h;

@@ -97,6 +97,32 @@ class Run(unittest.TestCase):
         self.assertEqual(leftovers(self.out), [])
 
 
+@unittest.skipUnless(os.path.exists("/dev/full"), "needs /dev/full")
+class FullDisk(unittest.TestCase):
+    """A full disk is an error, not a silently short file: each output's temporary name is
+    pointed at /dev/full (every write fails with ENOSPC) before the run."""
+
+    def run_with_full(self, name, steps):
+        out = tempfile.mkdtemp(prefix="sweep_full_")
+        os.symlink("/dev/full", os.path.join(out, name + ".partial"))
+        r = sweep("run", "small_box.yaml", "--out", out, "--quiet",
+                  "--set", f"time.end={steps * 1e-4}")
+        return out, r
+
+    def test_stats_on_a_full_disk(self):
+        out, r = self.run_with_full("stats.csv", 3000)  # fails at its first check, step 1024
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("stats.csv.partial: cannot write at step 1024 (disk full?)", r.stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "stats.csv")))
+        self.assertFalse(os.path.exists(os.path.join(out, "summary.json")))
+
+    def test_summary_on_a_full_disk(self):
+        out, r = self.run_with_full("summary.json", 20)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("summary.json.partial: cannot write (disk full?)", r.stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "summary.json")))
+
+
 class Inputs(unittest.TestCase):
     def test_every_malformed_scene_exits_2_with_its_message(self):
         bad = sorted(os.listdir(os.path.join(SCENES, "bad")))
