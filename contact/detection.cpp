@@ -245,7 +245,9 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
 
   // narrowphase, then identity across steps (both lists sorted by key) and frames
   std::size_t previous = 0;
-  for (const auto& [a, b] : cdata.pairs) {
+  for (const auto& pair : cdata.pairs) {
+    // named copies, not structured bindings: C++17 lambdas cannot capture those (clang)
+    const int a = pair.first, b = pair.second;
     if (!cmodel.mayCollide(a, b) || removed(a) || removed(b)) continue;
     ++cdata.stats.broadphase_pairs;
     const ContactModel::Traits& ta = cmodel.traits[a];

@@ -9,8 +9,13 @@ GridBroadphase::Cell GridBroadphase::cellOf(const Vector3& x) const {
   Cell c = Cell::Zero();
   // the origin is the particles' lower corner: particles have non-negative offsets, and
   // truncation is floor for them (queries below the corner round towards it, still safe)
-  for (int k = 0; k < dimension_; ++k)
-    c[k] = static_cast<std::int64_t>((x[k] - origin_[k]) * inverse_cell_);
+  // far-away points (a body placed or thrown 1e100 m off) share the outermost cells instead
+  // of overflowing the cell index; the narrowphase still sees their true distances
+  constexpr double far = 1e15;
+  for (int k = 0; k < dimension_; ++k) {
+    const double scaled = (x[k] - origin_[k]) * inverse_cell_;
+    c[k] = static_cast<std::int64_t>(std::isnan(scaled) ? 0.0 : std::clamp(scaled, -far, far));
+  }
   return c;
 }
 

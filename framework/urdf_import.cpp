@@ -224,8 +224,9 @@ class Importer {
   UrdfOptions options_;
 };
 
-// Checks urdfdom does not make, or reports less precisely: XML syntax with its line, and a
-// link claimed as the child of two joints (urdfdom only sees "two root links" then).
+// Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
+// claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
+// that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
 void precheckXml(const std::string& xml, const std::string& source) {
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
@@ -234,11 +235,13 @@ void precheckXml(const std::string& xml, const std::string& source) {
                      std::to_string(doc.ErrorCol()) + ": malformed XML: " + doc.ErrorDesc());
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (!robot) throw InputError(source + ": not a valid URDF: no <robot> element");
-  std::map<std::string, std::string> parent_joint;
+  std::map<std::string, std::string> parent_joint, parent_link;
   for (const TiXmlElement* j = robot->FirstChildElement("joint"); j;
        j = j->NextSiblingElement("joint")) {
     const TiXmlElement* child = j->FirstChildElement("child");
+    const TiXmlElement* parent = j->FirstChildElement("parent");
     const char* link = child ? child->Attribute("link") : nullptr;
+    const char* above = parent ? parent->Attribute("link") : nullptr;
     const char* name = j->Attribute("name");
     if (!link || !name) continue;  // urdfdom names the missing part
     const auto [it, fresh] = parent_joint.emplace(link, name);
@@ -246,6 +249,19 @@ void precheckXml(const std::string& xml, const std::string& source) {
       throw InputError(source + ": link '" + link +
                        "' has two parents: it is the child of joints '" + it->second + "' and '" +
                        name + "'");
+    if (above) parent_link.emplace(link, above);
+  }
+  // every link has at most one parent now: walking up from each one must end
+  for (const auto& [link, first_parent] : parent_link) {
+    std::string at = first_parent;
+    for (std::size_t steps = 0; steps <= parent_link.size(); ++steps) {
+      if (at == link)
+        throw InputError(source + ": joint '" + parent_joint.at(link) + "' closes a loop: link '" +
+                         link + "' is its own ancestor");
+      const auto up = parent_link.find(at);
+      if (up == parent_link.end()) break;
+      at = up->second;
+    }
   }
 }
 

@@ -60,7 +60,9 @@ SceneSpec hallFunnel(const FunnelParameters& p) {
     const double half_width =
         0.5 * p.orifice + y * slope - 0.5 * pitch / std::cos(std::atan(slope));
     if (half_width < 0.0) continue;
-    const int fit = static_cast<int>(std::floor(2.0 * half_width / pitch)) + 1;
+    // in double first: tiny grains in a wide cone fit more per row than an int holds
+    const double fits = std::floor(2.0 * half_width / pitch) + 1.0;
+    const int fit = fits < static_cast<double>(p.count) ? static_cast<int>(fits) : p.count;
     // stagger odd rows by a quarter pitch, where the row has room, so that columns do not
     // stack exactly
     const bool room = (fit - 1) * pitch + 0.5 * pitch <= 2.0 * half_width;

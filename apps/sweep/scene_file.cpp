@@ -50,7 +50,8 @@ Matrix3 rotationWithNormal(const Vector3& normal, int dimension) {
 
 class SceneParser {
  public:
-  SceneParser(const std::string& path, SceneFile& out) : path_(path), out_(out) {}
+  SceneParser(const std::string& path, SceneFile& out, long max_count)
+      : path_(path), out_(out), max_count_(max_count) {}
 
   void parse(const YamlField& root) {
     root.requireMap();
@@ -176,7 +177,7 @@ class SceneParser {
         scale = body["scale"].isSequence() ? body["scale"].vector(3)
                                            : Vector3::Constant(body["scale"].positive());
       const std::string file = resolve(path_, body["file"].text());
-      if (!fs::exists(file)) body["file"].fail("no such file (" + file + ")");
+      if (!fs::is_regular_file(file)) body["file"].fail("no such file (" + file + ")");
       auto mesh = loadTriangleMesh(file, scale);
       return body.boolean("convex", false) ? Shape::convexMesh(mesh) : Shape::triangleMesh(mesh);
     }
@@ -357,7 +358,7 @@ class SceneParser {
     if (disks != (dim == 2))
       g["type"].fail(std::string("does not fit a ") + std::to_string(dim) + "D scene");
     const long count = g["count"].integer();
-    if (count < 1 || count > 10000000) g["count"].fail("must be in [1, 10^7]");
+    if (count < 1 || count > max_count_) g["count"].fail("must be in [1, " + countLimit() + "]");
     const RadiusDistribution distribution = parseRadius(g["radius"]);
     const long seed = g.integer("seed", 1);
     if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
@@ -371,9 +372,11 @@ class SceneParser {
     const double pitch = 2.0 * *std::max_element(radii.begin(), radii.end()) * spacing;
     long across[3] = {1, 1, 1};
     for (int k = 0; k < dim; ++k) {
-      across[k] = static_cast<long>(std::floor((high[k] - low[k]) / pitch));
-      if (across[k] < 1)
+      const double fits = std::floor((high[k] - low[k]) / pitch);
+      if (!(fits >= 1.0))
         region.fail("is narrower than one lattice pitch (" + std::to_string(pitch) + ")");
+      // no more than `count` along any axis is ever needed (and the product cannot overflow)
+      across[k] = fits < static_cast<double>(count) ? static_cast<long>(fits) : count;
     }
     const long capacity = across[0] * across[1] * across[2];
     if (capacity < count)
@@ -404,7 +407,9 @@ class SceneParser {
                  "included_angle", "orifice", "shutter_time", "lattice_spacing", "seed"});
     if (out_.spec.dimension != 2) g["type"].fail("is a 2D generator");
     FunnelParameters p;
-    p.count = static_cast<int>(g.integer("count", p.count));
+    const long count = g.integer("count", p.count);
+    if (count > max_count_) g["count"].fail("must be <= " + countLimit());
+    p.count = static_cast<int>(count);
     p.radius_mean = g.number("radius_mean", p.radius_mean);
     p.radius_std = g.number("radius_std", p.radius_std);
     p.density = g.number("density", p.density);
@@ -415,7 +420,6 @@ class SceneParser {
     p.shutter_time = g.number("shutter_time", p.shutter_time);
     p.lattice_spacing = g.number("lattice_spacing", p.lattice_spacing);
     p.seed = static_cast<std::uint32_t>(g.integer("seed", p.seed));
-    if (g.integer("count", 1) > 10000000) g["count"].fail("must be <= 10^7");
     SceneSpec funnel;
     try {
       funnel = hallFunnel(p);
@@ -436,7 +440,7 @@ class SceneParser {
                    "material", "link_materials", "joint_springs"});
       UrdfSpec u;
       u.file = resolve(path_, f["file"].text());
-      if (!fs::exists(u.file)) f["file"].fail("no such file (" + u.file + ")");
+      if (!fs::is_regular_file(u.file)) f["file"].fail("no such file (" + u.file + ")");
       u.prefix = f.text("prefix", "");
       u.floating_base = f.boolean("floating", false);
       if (f.has("position")) u.base.translation = f["position"].vector(3);
@@ -609,8 +613,13 @@ class SceneParser {
     }
   }
 
+  std::string countLimit() const {
+    return max_count_ == 10000000 ? "10^7" : std::to_string(max_count_);
+  }
+
   const std::string& path_;
   SceneFile& out_;
+  const long max_count_;  // bodies per generator
   // spec.bodies from here on are the file's bodies list
   std::size_t explicit_from_ = std::numeric_limits<std::size_t>::max();
 };
@@ -622,7 +631,22 @@ SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>&
   for (const std::string& o : overrides) applyOverride(root, o, path);
   SceneFile scene;
   scene.path = path;
-  SceneParser(path, scene).parse(YamlField(root, path));
+  SceneParser(path, scene, kMaxGeneratorCount).parse(YamlField(root, path));
+  return scene;
+}
+
+SceneFile loadSceneText(const std::string& text, const std::string& path, long max_count) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                     std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+  }
+  if (!root.IsDefined() || root.IsNull()) throw InputError(path + ": the file is empty");
+  SceneFile scene;
+  scene.path = path;
+  SceneParser(path, scene, std::min(max_count, kMaxGeneratorCount)).parse(YamlField(root, path));
   return scene;
 }
 

@@ -35,6 +35,14 @@ struct SceneFile {
 // them). InputError for anything wrong, naming file, field and value.
 SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides = {});
 
+// The most bodies one generator may make.
+inline constexpr long kMaxGeneratorCount = 10000000;
+
+// The same from YAML text; `path` names it in messages and anchors relative file names.
+// max_count lowers the generator limit (the fuzzer keeps inputs small with it).
+SceneFile loadSceneText(const std::string& text, const std::string& path,
+                        long max_count = kMaxGeneratorCount);
+
 // Builds the Model, contact model and initial state; InputError names the file.
 Scene buildSceneFile(const SceneFile& file);
 

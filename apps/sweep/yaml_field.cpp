@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 #include "framework/error.hpp"
@@ -143,6 +144,10 @@ std::string YamlField::text(const std::string& key, const std::string& fallback)
 }
 
 YAML::Node loadYamlFile(const std::string& path) {
+  // a device or a fifo (sweep run /dev/zero) would be read forever
+  std::error_code error;
+  if (std::filesystem::exists(path, error) && !std::filesystem::is_regular_file(path, error))
+    throw InputError(path + ": not a regular file");
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the file");
   try {

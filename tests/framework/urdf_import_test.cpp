@@ -132,16 +132,18 @@ TEST_P(BadUrdfTest, ClearErrorNamingFileElementAndReason) {
 
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, BadUrdfTest,
-    ::testing::Values(BadUrdf{"missing.urdf", "does not exist"},
-                      BadUrdf{"malformed.urdf", "line 5, column 3: malformed XML"},
-                      BadUrdf{"unknown_joint_type.urdf", "helical"},
-                      BadUrdf{"negative_mass.urdf",
-                              "link 'b' <inertial>: mass must be >= 0, got -2.5"},
-                      BadUrdf{"inertia_not_positive.urdf",
-                              "link 'b' <inertial>: inertia tensor is not positive definite"},
-                      BadUrdf{"inertia_triangle.urdf", "violate the triangle inequality"},
-                      BadUrdf{"two_parents.urdf", "link 'c' has two parents"},
-                      BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"}),
+    ::testing::Values(
+        BadUrdf{"missing.urdf", "does not exist"},
+        BadUrdf{"malformed.urdf", "line 5, column 3: malformed XML"},
+        BadUrdf{"unknown_joint_type.urdf", "helical"},
+        BadUrdf{"negative_mass.urdf", "link 'b' <inertial>: mass must be >= 0, got -2.5"},
+        BadUrdf{"inertia_not_positive.urdf",
+                "link 'b' <inertial>: inertia tensor is not positive definite"},
+        BadUrdf{"inertia_triangle.urdf", "violate the triangle inequality"},
+        BadUrdf{"two_parents.urdf", "link 'c' has two parents"},
+        BadUrdf{"joint_loop.urdf", "closes a loop: link 'a' is its own ancestor"},
+        BadUrdf{"self_parent.urdf", "joint 'spin' closes a loop: link 'a' is its own ancestor"},
+        BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"}),
     [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
       return param_info.param.file.substr(0, param_info.param.file.find('.'));
     });

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Fuzzes the scene parser and the URDF importer with libFuzzer (clang), under AddressSanitizer
+# and UndefinedBehaviorSanitizer. Usage:
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]     (default: 60 s, scene and urdf)
+# The seed corpus is every scene and URDF of examples/ and tests/data/, plus the inputs that
+# once crashed Sweep (tests/fuzz/regressions/, replayed first). A crash leaves its input in
+# build-fuzz/crash-* and makes this script fail; add the input to tests/fuzz/regressions/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-60}"
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(scene urdf)
+
+"./scripts/install-deps.sh"
+cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+  -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF -DSWEEP_BUILD_BENCHMARKS=OFF \
+  -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_WERROR=ON >/dev/null
+cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
+
+for target in "${targets[@]}"; do
+  corpus="build-fuzz/corpus/$target"
+  mkdir -p "$corpus"
+  case "$target" in
+    scene) find examples tests/data/scenes -name '*.yaml' -exec cp {} "$corpus/" \; ;;
+    urdf) find examples tests/data -name '*.urdf' -exec cp {} "$corpus/" \; ;;
+  esac
+  echo "fuzz: $target for $seconds s"
+  # the regressions replay first: libFuzzer runs every given corpus before mutating
+  (cd build-fuzz && "./tests/fuzz/${target}_fuzzer" "corpus/$target" \
+     "../tests/fuzz/regressions/$target" -max_total_time="$seconds" -max_len=8192 \
+     -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 2>&1 | tail -25)
+done
