@@ -180,22 +180,23 @@ class Inputs(unittest.TestCase):
 
 
 class Interrupt(unittest.TestCase):
-    def test_ctrl_c_leaves_valid_flagged_results(self):
-        out = tempfile.mkdtemp(prefix="sweep_int_")
-        p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
-                              "--set", "time.end=1000"], cwd=SCENES,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(1.5)
-        p.send_signal(signal.SIGINT)
-        stdout, stderr = p.communicate(timeout=60)
-        self.assertEqual(p.returncode, 130, stderr)
-        with open(os.path.join(out, "summary.json")) as f:
-            s = json.load(f)
-        self.assertTrue(s["interrupted"])
-        rows = read_csv(os.path.join(out, "stats.csv"))
-        self.assertEqual(len(rows), s["steps"])
-        self.assertGreater(s["steps"], 0)
-        self.assertEqual(leftovers(out), [])
+    def test_ctrl_c_and_sigterm_leave_valid_flagged_results(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            out = tempfile.mkdtemp(prefix="sweep_int_")
+            p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
+                                  "--set", "time.end=1000"], cwd=SCENES,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            time.sleep(1.5)
+            p.send_signal(sig)
+            stdout, stderr = p.communicate(timeout=60)
+            self.assertEqual(p.returncode, 130, f"{sig}: {stderr}")
+            with open(os.path.join(out, "summary.json")) as f:
+                s = json.load(f)
+            self.assertTrue(s["interrupted"])
+            rows = read_csv(os.path.join(out, "stats.csv"))
+            self.assertEqual(len(rows), s["steps"])
+            self.assertGreater(s["steps"], 0)
+            self.assertEqual(leftovers(out), [])
 
 
 class Bench(unittest.TestCase):
