@@ -240,7 +240,18 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     fs::rename(stats_path + ".partial", stats_path, error);
     if (error) throw std::runtime_error(stats_path + ": cannot rename into place");
   }
-  if (files) writeSummaryJson(summary, options.out_dir + "/summary.json");
+  if (files) {
+    // the state the run ended in, exactly (17 digits): to compare runs bit for bit, or to
+    // start another from it
+    std::ostringstream state;
+    state << "vector,index,value\n";
+    for (Eigen::Index i = 0; i < stepper.q().size(); ++i)
+      state << "q," << i << ',' << exactNumber(stepper.q()[i]) << '\n';
+    for (Eigen::Index i = 0; i < stepper.v().size(); ++i)
+      state << "v," << i << ',' << exactNumber(stepper.v()[i]) << '\n';
+    writeFileAtomically(options.out_dir + "/final_state.csv", state.str());
+    writeSummaryJson(summary, options.out_dir + "/summary.json");
+  }
   return summary;
 }
 

@@ -158,7 +158,9 @@ class Inputs(unittest.TestCase):
         self.assertEqual(s["steps"], 20)
 
     def test_without_timings_stats_are_bitwise_reproducible(self):
-        digests = []
+        """stats.csv and the final state (final_state.csv: q and v at 17 digits) hash the
+        same in two runs."""
+        digests, states = [], []
         for _ in range(2):
             out = tempfile.mkdtemp(prefix="sweep_repeat_")
             r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set",
@@ -167,6 +169,11 @@ class Inputs(unittest.TestCase):
             with open(os.path.join(out, "stats.csv"), "rb") as f:
                 data = f.read()
             digests.append(hashlib.sha256(data).hexdigest())
+            with open(os.path.join(out, "final_state.csv"), "rb") as f:
+                state = f.read()
+            states.append(hashlib.sha256(state).hexdigest())
+        self.assertEqual(len(state.decode().splitlines()), 1 + 72 + 72)
+        self.assertEqual(states[0], states[1])
         header = data.decode().splitlines()[0]
         self.assertEqual(header, HEADER.rsplit(",t_detect", 1)[0])
         self.assertEqual(len(data.decode().splitlines()), 101)
