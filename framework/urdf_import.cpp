@@ -28,14 +28,23 @@ class CapturedLog : public console_bridge::OutputHandler {
   std::string messages;
 };
 
+// console_bridge restores by swapping its current and previous handlers, so after a capture
+// it still holds a pointer to the capturing handler. That handler therefore lives for the
+// whole program (one per thread), never on a stack frame that is gone.
 class LogCapture {
  public:
-  LogCapture() { console_bridge::useOutputHandler(&log_); }
+  LogCapture() {
+    log().messages.clear();
+    console_bridge::useOutputHandler(&log());
+  }
   ~LogCapture() { console_bridge::restorePreviousOutputHandler(); }
-  const std::string& messages() const { return log_.messages; }
+  const std::string& messages() const { return log().messages; }
 
  private:
-  CapturedLog log_;
+  static CapturedLog& log() {
+    thread_local CapturedLog instance;
+    return instance;
+  }
 };
 
 Pose toPose(const urdf::Pose& p) {

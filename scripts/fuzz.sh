@@ -27,7 +27,12 @@ for target in "${targets[@]}"; do
   esac
   echo "fuzz: $target for $seconds s"
   # the regressions replay first: libFuzzer runs every given corpus before mutating
+  # the whole log is kept in build-fuzz/TARGET.log; its head and tail are shown
   (cd build-fuzz && "./tests/fuzz/${target}_fuzzer" "corpus/$target" \
      "../tests/fuzz/regressions/$target" -max_total_time="$seconds" -max_len=8192 \
-     -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 2>&1 | tail -25)
+     -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 > "$target.log" 2>&1) || {
+    grep -m1 -A40 "ERROR\|runtime error\|Sanitizer" "build-fuzz/$target.log" || tail -60 "build-fuzz/$target.log"
+    exit 1
+  }
+  tail -8 "build-fuzz/$target.log"
 done
