@@ -7,6 +7,20 @@
 
 namespace sweep {
 
+namespace {
+
+// A link of a planar mechanism given by its mass, centre and moment J about the centre
+// (the published data): only the z moment acts in the plane, so all three are J.
+Inertia planarLink(double mass, const Vector3& com, double J) {
+  Inertia in;
+  in.mass = mass;
+  in.com = com;
+  in.inertia_com = J * Matrix3::Identity();
+  return in;
+}
+
+}  // namespace
+
 Scene bouncingBall(const BouncingBallParameters& p) {
   ModelBuilder mb("bouncing ball");
   addFreeBody(mb, "ball", solidSphereInertia(p.mass, p.radius));
@@ -97,23 +111,15 @@ Scene wallPendulum(const WallPendulumParameters& p) {
 Scene sliderCrank(const SliderCrankParameters& p) {
   ModelBuilder mb("slider-crank with clearance");
   mb.setGravity(Vector3(0.0, -p.gravity, 0.0));
-  // each link's inertia about its centre; only the z moment acts in the plane
-  auto link = [](double mass, const Vector3& com, double J) {
-    Inertia in;
-    in.mass = mass;
-    in.com = com;
-    in.inertia_com = J * Matrix3::Identity();
-    return in;
-  };
   Pose at_crank_pin, at_rod_end;
   at_crank_pin.translation = Vector3(p.l1, 0.0, 0.0);
   at_rod_end.translation = Vector3(p.l2, 0.0, 0.0);
   const int crank = mb.addBody(-1, "crank joint", Joint::revolute(Vector3::UnitZ()), Pose{},
-                               link(p.m1, Vector3(0.5 * p.l1, 0, 0), p.J1), "crank");
+                               planarLink(p.m1, Vector3(0.5 * p.l1, 0, 0), p.J1), "crank");
   const int rod = mb.addBody(crank, "crank pin", Joint::revolute(Vector3::UnitZ()), at_crank_pin,
-                             link(p.m2, Vector3(0.5 * p.l2, 0, 0), p.J2), "rod");
+                             planarLink(p.m2, Vector3(0.5 * p.l2, 0, 0), p.J2), "rod");
   mb.addBody(rod, "piston pin", Joint::revolute(Vector3::UnitZ()), at_rod_end,
-             link(p.m3, Vector3::Zero(), p.J3), "slider");
+             planarLink(p.m3, Vector3::Zero(), p.J3), "slider");
   Scene scene;
   scene.model = mb.build();
   ContactModelBuilder cb(scene.model);
@@ -138,21 +144,14 @@ Scene sliderCrank(const SliderCrankParameters& p) {
 Scene woodpecker(const WoodpeckerParameters& p) {
   ModelBuilder mb("woodpecker toy");
   mb.setGravity(Vector3(0.0, -p.gravity, 0.0));
-  auto inertia = [](double mass, const Vector3& com, double J) {
-    Inertia in;
-    in.mass = mass;
-    in.com = com;
-    in.inertia_com = J * Matrix3::Identity();
-    return in;
-  };
   const int carriage = mb.addBody(-1, "pole slide", Joint::prismatic(Vector3::UnitY()), Pose{},
                                   Inertia::zero(), "carriage");
   const int sleeve = mb.addBody(carriage, "sleeve tilt", Joint::revolute(Vector3::UnitZ()), Pose{},
-                                inertia(p.mM, Vector3::Zero(), p.JM), "sleeve");
+                                planarLink(p.mM, Vector3::Zero(), p.JM), "sleeve");
   Pose spring;
   spring.translation = Vector3(p.lM, 0.0, 0.0);
   const int bird = mb.addBody(sleeve, "spring", Joint::revolute(Vector3::UnitZ()), spring,
-                              inertia(p.mS, Vector3(p.lG, 0.0, 0.0), p.JS), "bird");
+                              planarLink(p.mS, Vector3(p.lG, 0.0, 0.0), p.JS), "bird");
   Scene scene;
   scene.model = mb.build();
   ContactModelBuilder cb(scene.model);

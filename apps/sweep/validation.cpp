@@ -61,6 +61,21 @@ long wholeRatio(double a, double b, const char* what) {
   return n;
 }
 
+// A run of `scheme` at step h, sampled every sample_interval: the RMS over the samples
+// j = 1 .. samples of squared_error(q at sample j, j).
+double sampledRms(const Scene& scene, Scheme scheme, double h, double sample_interval, long samples,
+                  const std::function<double(const VectorX&, long)>& squared_error) {
+  const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
+  TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h), scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  double sum = 0.0;
+  for (long j = 1; j <= samples; ++j) {
+    for (long k = 0; k < per_sample; ++k) stepper.step();
+    sum += squared_error(stepper.q(), j);
+  }
+  return std::sqrt(sum / static_cast<double>(samples));
+}
+
 }  // namespace
 
 std::vector<ConvergencePoint> convergenceStudy(const std::vector<double>& steps,
@@ -131,16 +146,10 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
     }
   }
   return convergenceStudy(steps, [&](double h) {
-    const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
-    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
-    stepper.reset(0.0, scene.q0, scene.v0);
-    double sum2 = 0.0;
-    for (long j = 1; j <= samples; ++j) {
-      for (long k = 0; k < per_sample; ++k) stepper.step();
-      const double d = stepper.q()[2] - reference_height[j];
-      sum2 += d * d;
-    }
-    return std::sqrt(sum2 / static_cast<double>(samples));
+    return sampledRms(scene, scheme, h, sample_interval, samples, [&](const VectorX& q, long j) {
+      const double d = q[2] - reference_height[j];
+      return d * d;
+    });
   });
 }
 
@@ -193,15 +202,8 @@ std::vector<ConvergencePoint> wallPendulumConvergence(const WallPendulumParamete
   const WallPendulumReference reference = wallPendulumReference(parameters, t_end, sample_interval);
   const long samples = static_cast<long>(reference.q.size()) - 1;
   return convergenceStudy(steps, [&](double h) {
-    const long per_sample = wholeRatio(sample_interval, h, "sample_interval / h");
-    TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
-    stepper.reset(0.0, scene.q0, scene.v0);
-    double sum2 = 0.0;
-    for (long j = 1; j <= samples; ++j) {
-      for (long k = 0; k < per_sample; ++k) stepper.step();
-      sum2 += (stepper.q() - reference.q[j]).squaredNorm();
-    }
-    return std::sqrt(sum2 / static_cast<double>(samples));
+    return sampledRms(scene, scheme, h, sample_interval, samples,
+                      [&](const VectorX& q, long j) { return (q - reference.q[j]).squaredNorm(); });
   });
 }
 
