@@ -35,10 +35,13 @@ struct Contact {
   Vector3 tangent1;  // world, orthonormal to the normal
   Vector3 tangent2;  // 3D: normal x tangent1; 2D: zero
   Vector3 point_a;   // world witness point on a
-  Vector3 point_b;   // world witness point on b: point_a + gap * normal
+  // world witness point on b: point_a + gap * normal, less one period when the pair meets
+  // b's periodic image (key.feature 1: image at +period, 2: at -period)
+  Vector3 point_b;
   double friction = 0.0;
   double restitution = 0.0;
-  int previous = -1;  // index of the same contact in the previous detection, or -1
+  double rolling = 0.0;  // mu_r R*: the rolling torque bound per unit normal impulse
+  int previous = -1;     // index of the same contact in the previous detection, or -1
 };
 
 }  // namespace sweep

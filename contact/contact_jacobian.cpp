@@ -16,11 +16,20 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
   J.normal.clear();
   J.tangent1.clear();
   J.tangent2.clear();
+  J.rolling = cmodel.rolling;
+  J.rolling1.clear();
+  J.rolling2.clear();
+  J.known_spin.resize(J.rolling ? n : 0);
 
   for (int c = 0; c < n; ++c) {
     const Contact& contact = cdata.contacts[c];
     J.begin[c] = static_cast<int>(J.dof.size());
     Vector3 known = Vector3::Zero();
+    Vector2 spin = Vector2::Zero();
+    // rolling rows: the relative angular velocity about the tangents (3D) or the plane normal
+    // (2D), the axes a rolling torque acts on
+    const Vector3 roll1 = cmodel.dimension == 2 ? Vector3(Vector3::UnitZ()) : contact.tangent1;
+    const Vector3 roll2 = cmodel.dimension == 2 ? Vector3(Vector3::Zero()) : contact.tangent2;
     // U = velocity of b's point minus velocity of a's point, projected on the frame
     for (int side = 0; side < 2; ++side) {
       const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
@@ -28,7 +37,7 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
       const double sign = side == 0 ? -1.0 : 1.0;
       if (body.kind == BodyRef::Kind::Dynamic) {
         forEachPointJacobianColumn(model, data, body.index, point,
-                                   [&](int v_index, const Vector3&, const Vector3& linear) {
+                                   [&](int v_index, const Vector3& angular, const Vector3& linear) {
                                      int& slot = cdata.dof_slot[v_index];
                                      if (slot < 0) {
                                        slot = static_cast<int>(J.dof.size());
@@ -36,10 +45,18 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
                                        J.normal.push_back(0.0);
                                        J.tangent1.push_back(0.0);
                                        J.tangent2.push_back(0.0);
+                                       if (J.rolling) {
+                                         J.rolling1.push_back(0.0);
+                                         J.rolling2.push_back(0.0);
+                                       }
                                      }
                                      J.normal[slot] += sign * contact.normal.dot(linear);
                                      J.tangent1[slot] += sign * contact.tangent1.dot(linear);
                                      J.tangent2[slot] += sign * contact.tangent2.dot(linear);
+                                     if (J.rolling) {
+                                       J.rolling1[slot] += sign * roll1.dot(angular);
+                                       J.rolling2[slot] += sign * roll2.dot(angular);
+                                     }
                                    });
       } else if (body.kind == BodyRef::Kind::Driven) {
         const DrivenBody& driven = model.driven_bodies[body.index];
@@ -48,10 +65,12 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
         const Vector3 velocity = twist.tail<3>() + twist.head<3>().cross(lever);
         known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
                                 contact.tangent2.dot(velocity));
+        spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
       }
     }
     for (int k = J.begin[c]; k < static_cast<int>(J.dof.size()); ++k) cdata.dof_slot[J.dof[k]] = -1;
     J.known_velocity[c] = known;
+    if (J.rolling) J.known_spin[c] = spin;
   }
   J.begin[n] = static_cast<int>(J.dof.size());
 }

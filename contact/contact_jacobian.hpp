@@ -25,6 +25,11 @@ struct ContactJacobian {
   std::vector<double> tangent1;         // W_T entries, first tangent
   std::vector<double> tangent2;         // W_T entries, second tangent (3D)
   std::vector<Vector3> known_velocity;  // (normal, tangent1, tangent2) relative velocity at v = 0
+  // rolling rows, filled when some law has rolling resistance: the relative angular velocity
+  // (omega_b - omega_a) about tangent1 and tangent2 (3D), or about z (2D, rolling2 zero)
+  bool rolling = false;
+  std::vector<double> rolling1, rolling2;
+  std::vector<Vector2> known_spin;  // the same at v = 0 (driven bodies: a spinning roller)
 
   int size() const { return static_cast<int>(known_velocity.size()); }
 

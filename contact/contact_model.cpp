@@ -23,6 +23,29 @@ void DetectionSettings::validate() const {
   if (!(std::isfinite(speed_factor) && speed_factor >= 0.0))
     throw InputError("detection.speed_factor must be >= 0, got " + show(speed_factor));
   if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));
+  if (periodic.enabled()) {
+    if (periodic.axis > 2)
+      throw InputError("detection.periodic.axis must be x, y or z, got " +
+                       std::to_string(periodic.axis));
+    if (!(std::isfinite(periodic.low) && std::isfinite(periodic.high) &&
+          periodic.high > periodic.low))
+      throw InputError("detection.periodic: high must be > low, both finite, got [" +
+                       show(periodic.low) + ", " + show(periodic.high) + "]");
+  }
+}
+
+int wrapPeriodic(const ContactModel& cmodel, VectorX& q) {
+  const Periodicity& p = cmodel.settings.periodic;
+  if (!p.enabled()) return 0;
+  int moved = 0;
+  const double period = p.period();
+  for (const auto& [index, offset] : cmodel.periodic_coordinates) {
+    const double x = q[index] + offset;
+    if (x >= p.low && x < p.high) continue;
+    q[index] -= period * std::floor((x - p.low) / period);
+    ++moved;
+  }
+  return moved;
 }
 
 std::string describe(const ContactModel& cmodel) {
@@ -30,7 +53,12 @@ std::string describe(const ContactModel& cmodel) {
   out << "contact: " << cmodel.size() << " shapes (" << cmodel.dimension << "D), detection "
       << detectionPathName(cmodel.path) << " (" << cmodel.path_reason << "), margin floor "
       << cmodel.margin_floor << " m, friction "
-      << (cmodel.frictionless ? "off (every mu = 0)" : "on");
+      << (cmodel.frictionless ? "off (every mu = 0)" : "on")
+      << (cmodel.rolling ? ", rolling resistance on" : "");
+  if (cmodel.settings.periodic.enabled())
+    out << ", periodic along "
+        << "xyz"[cmodel.settings.periodic.axis] << " on [" << cmodel.settings.periodic.low << ", "
+        << cmodel.settings.periodic.high << ")";
   return out.str();
 }
 
@@ -117,6 +145,41 @@ double characteristicSize(const Shape& s) {
   }
 }
 }  // namespace
+
+// Periodic scenes: images exist for balls on free bodies only, through the analytic path, and
+// the period must hold a grain and its neighbours; anything else is refused here rather than
+// silently missing contacts across the boundary.
+void ContactModelBuilder::addPeriodicCoordinates(ContactModel& cm) const {
+  const Periodicity& p = settings_.periodic;
+  if (cm.path != DetectionPath::Analytic)
+    throw InputError("detection.periodic needs the analytic detection path (" + cm.path_reason +
+                     ")");
+  if (cm.dimension == 2 && p.axis == 2)
+    throw InputError("detection.periodic.axis: a 2D scene repeats along x or y, got z");
+  double largest = 0.0;
+  for (const Geometry& g : geometries_) {
+    if (!g.body.hasDofs()) continue;
+    const Body& body = model_.bodies[g.body.index];
+    const bool ball = g.shape.type == ShapeType::Sphere || g.shape.type == ShapeType::Disk;
+    const bool free_body = body.parent < 0 && (body.joint.type == JointType::Floating ||
+                                               (body.joint.type == JointType::Planar &&
+                                                body.joint.plane_x == Vector3::UnitX() &&
+                                                body.joint.plane_y == Vector3::UnitY()));
+    if (!ball || !free_body || !g.placement.translation.isZero(0.0) ||
+        body.joint_placement.rotation != Matrix3::Identity())
+      throw InputError(ownerName(g) +
+                       ": periodic boundaries take free spheres or disks (centred on their "
+                       "body) as moving shapes, got a " +
+                       shapeTypeName(g.shape.type) + " on joint '" + body.joint_name + "'");
+    largest = std::max(largest, g.shape.radius);
+    cm.periodic_coordinates.emplace_back(body.q_index + p.axis,
+                                         body.joint_placement.translation[p.axis]);
+  }
+  if (!(p.period() > 6.0 * largest))
+    throw InputError("detection.periodic: the period " + formatValue(p.period()) +
+                     " must exceed three largest grain diameters (" + formatValue(6.0 * largest) +
+                     ")");
+}
 
 ContactModel ContactModelBuilder::build() const {
   settings_.validate();
@@ -213,7 +276,11 @@ ContactModel ContactModelBuilder::build() const {
   cm.frictionless = true;
   for (int a : used)
     for (int b : used)
-      if (materials_.law(a, b).friction > 0.0) cm.frictionless = false;
+      if (materials_.law(a, b).friction > 0.0 || materials_.law(a, b).rolling > 0.0) {
+        cm.frictionless = false;
+        cm.rolling = cm.rolling || materials_.law(a, b).rolling > 0.0;
+      }
+  if (settings_.periodic.enabled()) addPeriodicCoordinates(cm);
   return cm;
 }
 

@@ -41,6 +41,18 @@ enum class DetectionPathChoice { Automatic, Analytic, Fcl };
 
 const char* detectionPathName(DetectionPath path);
 
+// Periodic boundaries along one world axis: space repeats with period high - low, so a grain
+// near `high` touches the grains near `low` through their image shifted by one period, and
+// free bodies leaving [low, high) re-enter at the other side (wrapPeriodic, after each step).
+// Images are built for balls (spheres, disks) on free bodies; other shapes must not cross the
+// boundaries (a blade or a plate spans the period instead).
+struct Periodicity {
+  int axis = -1;  // 0, 1, 2 (x, y, z); -1: off
+  double low = 0.0, high = 0.0;
+  bool enabled() const { return axis >= 0; }
+  double period() const { return high - low; }
+};
+
 struct DetectionSettings {
   DetectionPathChoice path = DetectionPathChoice::Automatic;
   // Candidate contacts are pairs with gap below the margin
@@ -51,6 +63,7 @@ struct DetectionSettings {
   double floor = -1.0;
   // pairs of bodies in the same articulated component (self-collision of a robot)
   bool self_collision = false;
+  Periodicity periodic;
 
   void validate() const;  // InputError on negative or non-finite values
 };
@@ -63,7 +76,11 @@ struct ContactModel {
   DetectionPath path = DetectionPath::Fcl;
   std::string path_reason;  // one line for the run log: why this path was chosen
   double margin_floor = 0.0;
-  bool frictionless = true;  // every law that can apply has mu = 0
+  bool frictionless = true;  // every law that can apply has mu = 0 and mu_r = 0
+  bool rolling = false;      // some law that can apply has mu_r > 0: rolling rows are built
+  // periodic scenes: the q index of each free body's coordinate along the periodic axis and
+  // that coordinate's world offset (the body's joint placement); wrapped by wrapPeriodic
+  std::vector<std::pair<int, double>> periodic_coordinates;
 
   // per geometry, what the per-pair work reads, packed (40 bytes) so that a step over 10^5
   // grains does not stream whole Geometry records through the cache
@@ -92,6 +109,10 @@ struct ContactModel {
   }
 };
 
+// Moves every free body whose coordinate along the periodic axis left [low, high) back by one
+// period. No-op without periodic boundaries. Returns the number of bodies moved.
+int wrapPeriodic(const ContactModel& cmodel, VectorX& q);
+
 // One line for the run log: shape count, dimension, detection path and why, margin floor,
 // and whether the friction stage is needed.
 std::string describe(const ContactModel& cmodel);
@@ -115,6 +136,7 @@ class ContactModelBuilder {
 
  private:
   std::string ownerName(const Geometry& g) const;
+  void addPeriodicCoordinates(ContactModel& cm) const;
 
   const Model& model_;
   MaterialTable materials_;

@@ -15,6 +15,13 @@ bool isBall(ShapeType t) {
   return t == ShapeType::Sphere || t == ShapeType::Disk;
 }
 
+// R* of the rolling-resistance bound: r_a r_b / (r_a + r_b) for two balls, the ball's radius
+// against anything else (a flat or large surface), 0 when neither is a ball (no rolling row)
+double reducedRadius(double radius_a, double radius_b) {
+  if (radius_a > 0.0 && radius_b > 0.0) return radius_a * radius_b / (radius_a + radius_b);
+  return std::max({radius_a, radius_b, 0.0});
+}
+
 // Balls of the grid path: bounded, on a moving body, and not much larger than the typical
 // ball, so that the cell size stays near one grain diameter.
 void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
@@ -121,6 +128,11 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
     case ShapeType::Box:
       out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
       break;
+    case ShapeType::Capsule:  // a segment along the local z axis, rounded by the radius
+      out.push_back(segmentBall(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
+                                p1.apply(Vector3(0.0, 0.0, 0.5 * s1.length)), s1.radius,
+                                p2.translation, s2.radius));
+      break;
     default:
       break;
   }
@@ -153,30 +165,83 @@ void setFrame(Contact& c, int dimension, const Contact* previous) {
   c.tangent2 = c.normal.cross(c.tangent1);
 }
 
+// Pairs carry the periodic image of their second geometry in the two low bits of `second`:
+// (b << 2) | image, image 0 for b itself, 1 for b shifted by +period, 2 for -period. Sorting
+// the encoded pairs sorts by (a, b, image), the order of contact keys.
+constexpr int kImageBits = 2;
+std::pair<int, int> encodePair(int a, int b, int image = 0) {
+  return {a, (b << kImageBits) | image};
+}
+int pairGeometry(int encoded) {
+  return encoded >> kImageBits;
+}
+int pairImage(int encoded) {
+  return encoded & ((1 << kImageBits) - 1);
+}
+
+Vector3 imageShift(const Periodicity& periodic, int image) {
+  Vector3 shift = Vector3::Zero();
+  if (image != 0) shift[periodic.axis] = image == 1 ? periodic.period() : -periodic.period();
+  return shift;
+}
+
 void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margin) {
   const int n = static_cast<int>(cdata.particles.size());
   double largest = 0.0;
+  cdata.particle_center.resize(n);
+  cdata.particle_radius.resize(n);
   for (int k = 0; k < n; ++k) {
     cdata.particle_center[k] = cdata.geometry_pose[cdata.particles[k]].translation;
     largest = std::max(largest, cdata.particle_radius[k]);
   }
-  cdata.grid.build(cdata.particle_center, cdata.particle_radius, 2.0 * largest + margin,
-                   cmodel.dimension);
+  const double reach = 2.0 * largest + margin;
+  // periodic boundaries: grains within reach of a boundary get an image beyond the other one
+  cdata.ghost_of.clear();
+  const Periodicity& periodic = cmodel.settings.periodic;
+  if (periodic.enabled()) {
+    if (!(2.0 * reach < periodic.period()))
+      throw std::runtime_error("periodic detection: the search reach " + std::to_string(reach) +
+                               " m exceeds half the period; the step is too large for it");
+    for (int k = 0; k < n; ++k) {
+      const double x = cdata.particle_center[k][periodic.axis];
+      for (int image = 1; image <= 2; ++image) {
+        const bool near = image == 1 ? x - periodic.low < reach : periodic.high - x < reach;
+        if (!near) continue;
+        cdata.ghost_of.emplace_back(k, image);
+        cdata.particle_center.push_back(cdata.particle_center[k] + imageShift(periodic, image));
+        cdata.particle_radius.push_back(cdata.particle_radius[k]);
+      }
+    }
+  }
+  cdata.grid.build(cdata.particle_center, cdata.particle_radius, reach, cmodel.dimension);
   const std::size_t first = cdata.pairs.size();
   cdata.grid.findPairs(margin, cdata.pairs);
+  std::size_t kept = first;
   for (std::size_t k = first; k < cdata.pairs.size(); ++k) {
-    auto& [i, j] = cdata.pairs[k];
-    i = cdata.particles[i];
-    j = cdata.particles[j];
-    if (i > j) std::swap(i, j);
+    int i = cdata.pairs[k].first, j = cdata.pairs[k].second;
+    if (i >= n && j >= n) continue;  // two images: the pair of their originals is found as is
+    if (i < n && j < n) {
+      i = cdata.particles[i];
+      j = cdata.particles[j];
+      cdata.pairs[kept++] = encodePair(std::min(i, j), std::max(i, j));
+      continue;
+    }
+    if (i >= n) std::swap(i, j);
+    // a grain against an image: found once from each side; kept where the image is of the
+    // larger geometry
+    const auto [original, image] = cdata.ghost_of[j - n];
+    const int real = cdata.particles[i], imaged = cdata.particles[original];
+    if (real < imaged) cdata.pairs[kept++] = encodePair(real, imaged, image);
   }
+  cdata.pairs.resize(kept);
   // walls, blades, planes: against the particles their box can reach, and each other
   for (std::size_t l = 0; l < cdata.large.size(); ++l) {
     const int g = cdata.large[l];
     const Shape& shape = cmodel.geometries[g].shape;
     auto add = [&](int k) {
+      if (k >= n) return;  // images meet only grains
       const int p = cdata.particles[k];
-      cdata.pairs.emplace_back(std::min(g, p), std::max(g, p));
+      cdata.pairs.push_back(encodePair(std::min(g, p), std::max(g, p)));
     };
     if (isUnbounded(shape)) {
       for (int k = 0; k < n; ++k) add(k);
@@ -187,7 +252,7 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margi
     }
     for (std::size_t m = l + 1; m < cdata.large.size(); ++m) {
       const int other = cdata.large[m];
-      if (cmodel.mayCollide(g, other)) cdata.pairs.emplace_back(g, other);
+      if (cmodel.mayCollide(g, other)) cdata.pairs.push_back(encodePair(g, other));
     }
   }
 }
@@ -195,12 +260,13 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margi
 void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata, double margin) {
   cdata.fcl->update(cdata.geometry_pose, margin);
   cdata.fcl->findPairs(cdata.pairs);
+  for (auto& pair : cdata.pairs) pair = encodePair(pair.first, pair.second);
   // FCL holds no half-spaces: they meet every geometry
   for (int h = 0; h < cmodel.size(); ++h) {
     if (cdata.fcl->has(h)) continue;
     for (int g = 0; g < cmodel.size(); ++g)
       if (g != h && cmodel.mayCollide(g, h))
-        cdata.pairs.emplace_back(std::min(g, h), std::max(g, h));
+        cdata.pairs.push_back(encodePair(std::min(g, h), std::max(g, h)));
   }
 }
 
@@ -247,8 +313,9 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
   std::size_t previous = 0;
   for (const auto& pair : cdata.pairs) {
     // named copies, not structured bindings: C++17 lambdas cannot capture those (clang)
-    const int a = pair.first, b = pair.second;
+    const int a = pair.first, b = pairGeometry(pair.second), image = pairImage(pair.second);
     if (!cmodel.mayCollide(a, b) || removed(a) || removed(b)) continue;
+    const Vector3 shift = imageShift(cmodel.settings.periodic, image);
     ++cdata.stats.broadphase_pairs;
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];
@@ -262,12 +329,15 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       c.gap = p.gap;
       c.normal = p.normal;
       c.point_a = p.point_a;
-      c.point_b = p.point_b;
+      c.point_b = p.point_b - shift;  // on b itself: its Jacobian's lever arm
     };
     if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
-      // grain against grain, the bulk of a granular step: nothing but centres and radii
-      emit(ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
-                    cdata.geometry_pose[b].translation, tb.ball_radius));
+      // grain against grain, the bulk of a granular step: nothing but centres and radii; the
+      // feature of a periodic pair is the image it meets
+      ContactPoint p = ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
+                                cdata.geometry_pose[b].translation + shift, tb.ball_radius);
+      p.feature = image;
+      emit(p);
     } else {
       cdata.points.clear();
       if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
@@ -283,6 +353,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     }
     if (first == cdata.contacts.size()) continue;
     const ContactLaw& law = cmodel.materials.law(ta.material, tb.material);
+    const double rolling = law.rolling * reducedRadius(ta.ball_radius, tb.ball_radius);
     for (std::size_t k = first; k < cdata.contacts.size(); ++k) {
       Contact& c = cdata.contacts[k];
       if (cmodel.dimension == 2) {
@@ -294,6 +365,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       }
       c.friction = law.friction;
       c.restitution = law.restitution;
+      c.rolling = rolling;
       while (previous < cdata.previous.size() && cdata.previous[previous].key < c.key) ++previous;
       const bool matched =
           previous < cdata.previous.size() && cdata.previous[previous].key == c.key;
@@ -317,10 +389,15 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];
     cdata.points.clear();
-    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0)
-      cdata.points.push_back(ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
-                                      cdata.geometry_pose[b].translation, tb.ball_radius));
-    else if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
+      const int image = cdata.contacts[c].key.feature;
+      ContactPoint p =
+          ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
+                   cdata.geometry_pose[b].translation + imageShift(cmodel.settings.periodic, image),
+                   tb.ball_radius);
+      p.feature = image;
+      cdata.points.push_back(p);
+    } else if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], far, cdata.points);
     else

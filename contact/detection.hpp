@@ -47,6 +47,7 @@ struct ContactData {
   std::vector<int> large;      // grid path: every other geometry
   std::vector<Vector3> particle_center;
   std::vector<double> particle_radius;
+  std::vector<std::pair<int, int>> ghost_of;  // periodic images: (particle, image) per ghost
   GridBroadphase grid;
   std::unique_ptr<FclScene> fcl;
   std::vector<int> dof_slot;  // Jacobian assembly: entry of each dof in the current row, or -1

@@ -50,8 +50,15 @@ const ContactLaw& MaterialTable::law(int a, int b) const {
 bool MaterialTable::frictionless() const {
   for (int a = 0; a < size(); ++a)
     for (int b = a; b < size(); ++b)
-      if (law(a, b).friction > 0.0) return false;
+      if (law(a, b).friction > 0.0 || law(a, b).rolling > 0.0) return false;
   return true;
+}
+
+bool MaterialTable::hasRolling() const {
+  for (int a = 0; a < size(); ++a)
+    for (int b = a; b < size(); ++b)
+      if (law(a, b).rolling > 0.0) return true;
+  return false;
 }
 
 void validateContactLaw(const ContactLaw& law, const std::string& owner) {
@@ -60,6 +67,8 @@ void validateContactLaw(const ContactLaw& law, const std::string& owner) {
     throw InputError(owner + ": friction must be >= 0, got " + show(law.friction));
   if (!(std::isfinite(law.restitution) && law.restitution >= 0.0 && law.restitution <= 1.0))
     throw InputError(owner + ": restitution must be in [0, 1], got " + show(law.restitution));
+  if (!(std::isfinite(law.rolling) && law.rolling >= 0.0))
+    throw InputError(owner + ": rolling_resistance must be >= 0, got " + show(law.rolling));
 }
 
 }  // namespace sweep

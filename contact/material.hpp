@@ -1,5 +1,7 @@
 #pragma once
-// Contact laws per pair of materials: Coulomb friction coefficient mu and Newton restitution e.
+// Contact laws per pair of materials: Coulomb friction coefficient mu, Newton restitution e and
+// a rolling-resistance coefficient mu_r (the impulsive rolling torque is bounded by
+// mu_r R* P_N, with R* the reduced radius of the pair; powder models rely on it).
 #include <string>
 #include <vector>
 
@@ -8,6 +10,7 @@ namespace sweep {
 struct ContactLaw {
   double friction = 0.0;     // mu >= 0
   double restitution = 0.0;  // e in [0, 1]
+  double rolling = 0.0;      // mu_r >= 0 (dimensionless)
 };
 
 // Material 0 is "default". A pair without its own law uses the default law.
@@ -26,6 +29,8 @@ class MaterialTable {
 
   // true when no pair that may meet has friction: the friction stage can be skipped
   bool frictionless() const;
+  // true when some pair has mu_r > 0: the rolling rows are assembled
+  bool hasRolling() const;
 
  private:
   std::vector<std::string> names_;
@@ -34,7 +39,7 @@ class MaterialTable {
   std::vector<ContactLaw> laws_;
 };
 
-// InputError unless mu >= 0 and 0 <= e <= 1, both finite. `owner` names the pair.
+// InputError unless mu >= 0, 0 <= e <= 1 and mu_r >= 0, all finite. `owner` names the pair.
 void validateContactLaw(const ContactLaw& law, const std::string& owner);
 
 }  // namespace sweep

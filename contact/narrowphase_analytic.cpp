@@ -11,6 +11,7 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
     case T::Sphere:
       return a == T::Sphere;
     case T::Box:
+    case T::Capsule:
       return a == T::Sphere;
     case T::HalfSpace:
       return a == T::Sphere || a == T::Box || a == T::Capsule || a == T::Cylinder ||

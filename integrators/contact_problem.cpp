@@ -35,7 +35,8 @@ void ContactProblem::pack2d() {
   rows2d.clear();
   h2d.clear();
   minv2d.clear();
-  if (dimension != 2) return;
+  // the packed rows carry no rolling part: such scenes take the generic path
+  if (dimension != 2 || rolling) return;
   for (int c = 0; c < size(); ++c) {
     PackedRow2d row;
     row.W = delassus[c].topLeftCorner<2, 2>();
@@ -77,6 +78,13 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.restitution.clear();
   p.velocity_start.clear();
   p.normal_bias.clear();
+  p.rolling = J.rolling;
+  p.rolling_h.clear();
+  p.rolling_minv_h.clear();
+  p.rolling_known.clear();
+  p.rolling_delassus.clear();
+  p.rolling_bound.clear();
+  const int rhs_columns = p.rolling ? 5 : 3;
   ws.row_component.clear();
   for (std::size_t i = 0; i < ws.component_parent.size(); ++i)
     ws.component_parent[i] = static_cast<int>(i);
@@ -87,7 +95,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   };
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
-  auto finishRow = [&](const Vector3& known, double gap, double mu, double e) {
+  auto finishRow = [&](const Vector3& known, double gap, double mu, double e,
+                       const Vector2& known_spin, double rolling_bound) {
     const int pc = static_cast<int>(p.begin.size()) - 1;
     p.begin.push_back(static_cast<int>(p.dof.size()));
     // M^-1 H_c, component by component (a contact touches at most two)
@@ -97,9 +106,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       const Component& component = model.components[comp];
       if (std::find(ws.touched.begin(), ws.touched.end(), comp) == ws.touched.end()) {
         ws.touched.push_back(comp);
-        ws.component_rhs[comp].setZero();
+        ws.component_rhs[comp].setZero(component.nv, rhs_columns);
       }
-      ws.component_rhs[comp].row(p.dof[k] - component.v_index) = p.h[k].transpose();
+      ws.component_rhs[comp].row(p.dof[k] - component.v_index).head<3>() = p.h[k].transpose();
+      if (p.rolling)
+        ws.component_rhs[comp].row(p.dof[k] - component.v_index).tail<2>() =
+            p.rolling_h[k].transpose();
     }
     for (int comp : ws.touched) {
       const Component& component = model.components[comp];
@@ -108,6 +120,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       for (int i = 0; i < component.nv; ++i) {
         p.minv_dof.push_back(component.v_index + i);
         p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
+        if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
       }
     }
     p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
@@ -151,6 +164,18 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;
     if (law == NormalLaw::Pos) bias += gap / tau;
     p.normal_bias.push_back(bias);
+    if (p.rolling) {
+      Matrix2 W_r = Matrix2::Zero();
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
+        for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
+          if (p.minv_dof[m] == p.dof[k]) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
+      if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
+      // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
+      if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
+      p.rolling_delassus.push_back(W_r);
+      p.rolling_known.push_back(known_spin);
+      p.rolling_bound.push_back(rolling_bound);
+    }
   };
 
   // A contact that touches exactly (a block placed on a floor) has a computed gap of
@@ -166,8 +191,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
       p.dof.push_back(J.dof[k]);
       p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);
+      if (p.rolling) p.rolling_h.emplace_back(J.rolling1[k], J.rolling2[k]);
     }
-    finishRow(J.known_velocity[c], contact.gap, contact.friction, contact.restitution);
+    finishRow(J.known_velocity[c], contact.gap, contact.friction, contact.restitution,
+              p.rolling ? J.known_spin[c] : Vector2::Zero(), contact.rolling);
   }
 
   // joint limits: gap = side (q - bound) >= 0, W_N = side on the joint's velocity
@@ -181,7 +208,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.contact.push_back(-1 - l);
     p.dof.push_back(limit.v_index);
     p.h.emplace_back(limit.side, 0.0, 0.0);
-    finishRow(Vector3::Zero(), gap, 0.0, 0.0);
+    if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
+    finishRow(Vector3::Zero(), gap, 0.0, 0.0, Vector2::Zero(), 0.0);
   }
 
   // islands numbered in order of their first row: deterministic

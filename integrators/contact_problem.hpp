@@ -44,6 +44,15 @@ struct ContactProblem {
   std::vector<Vector3> velocity_start;  // U_c^k = H_c^T v_k + known_c
   std::vector<double> normal_bias;      // e U_N^k + gap term: U*_N = U_N + normal_bias
 
+  // Rolling resistance (empty unless the scene has it): per row, the relative angular velocity
+  // U_r = H_r^T v + rolling_known about the two tangents (3D) or z (2D, second entry zero),
+  // H_r and M^-1 H_r aligned with h and minv_h, W_r = H_r^T M^-1 H_r, and the bound
+  // |R_c| <= rolling_bound[c] * (normal impulse). Rows with bound 0 carry no rolling torque.
+  bool rolling = false;
+  std::vector<Vector2> rolling_h, rolling_minv_h, rolling_known;
+  std::vector<Matrix2> rolling_delassus;
+  std::vector<double> rolling_bound;
+
   // contact islands: rows that share no moving component never interact, and each island is
   // solved on its own (rows island_rows[island_begin[i] .. island_begin[i + 1]) ). Empty:
   // one island of every row.
@@ -67,7 +76,7 @@ struct ContactProblem {
   };
   std::vector<PackedRow2d> rows2d;
   std::vector<PackedEntry2d> h2d, minv2d;
-  void pack2d();  // from the arrays above; call after changing them
+  void pack2d();  // from the arrays above; call after changing them (none with rolling rows)
 
   int size() const { return static_cast<int>(contact.size()); }
   int islandCount() const {
@@ -82,6 +91,16 @@ struct ContactProblem {
   // v += M^-1 H_c dP
   void applyImpulse(int c, const Vector3& dP, VectorX& v) const {
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) v[minv_dof[k]] += minv_h[k].dot(dP);
+  }
+  Vector2 rollingVelocity(int c, const VectorX& v) const {
+    Vector2 u = rolling_known[c];
+    for (int k = begin[c]; k < begin[c + 1]; ++k) u += rolling_h[k] * v[dof[k]];
+    return u;
+  }
+  // v += M^-1 H_r,c dR
+  void applyRolling(int c, const Vector2& dR, VectorX& v) const {
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k)
+      v[minv_dof[k]] += rolling_minv_h[k].dot(dR);
   }
 };
 

@@ -76,6 +76,80 @@ int selectIsland(const ContactProblem& p, int island, NlgsWorkspace& ws) {
   return end - begin;
 }
 
+// argmin over |y| <= radius of 1/2 (y - y0)^T A (y - y0) + b^T (y - y0), A SPD 2x2: the
+// unconstrained minimizer, or the boundary point where (A + nu I) y = A y0 - b, nu >= 0,
+// found by bisection on nu (|y(nu)| decreases with nu).
+Vector2 minimizeOnDisc(const Matrix2& A, const Vector2& y0, const Vector2& b, double radius) {
+  if (radius <= 0.0) return Vector2::Zero();
+  const double trace = A(0, 0) + A(1, 1);
+  if (std::abs(A(0, 1)) <= 1e-12 * trace && std::abs(A(0, 0) - A(1, 1)) <= 1e-12 * trace) {
+    // isotropic (spheres): the metric projection is the Euclidean one
+    const Vector2 y = y0 - b / A(0, 0);
+    const double norm = y.norm();
+    return norm <= radius ? y : Vector2(y * (radius / norm));
+  }
+  const Vector2 rhs = A * y0 - b;
+  Vector2 y = A.ldlt().solve(rhs);
+  if (y.norm() <= radius) return y;
+  double lo = 0.0, hi = rhs.norm() / radius;  // at nu = hi, |y| <= |rhs| / nu = radius
+  for (int it = 0; it < 100; ++it) {
+    const double nu = 0.5 * (lo + hi);
+    y = (A + nu * Matrix2::Identity()).ldlt().solve(rhs);
+    (y.norm() > radius ? lo : hi) = nu;
+  }
+  y = (A + hi * Matrix2::Identity()).ldlt().solve(rhs);
+  return y * std::min(1.0, radius / y.norm());
+}
+
+// Rolling resistance of row c: the torque impulse R on the rolling rows, |R| <= bound with
+// bound = mu_r R* (normal impulse), opposing the relative rolling velocity by maximal
+// dissipation. One exact local solve on the disc, as for friction; the changes enter the
+// convergence measure in units of the bound's lever, mu_r R*, so that torques weigh like
+// forces.
+Vector2 rollingTarget(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
+                      const Vector2& u) {
+  const double radius = p.rolling_bound[c] * std::max(normal_impulse, 0.0);
+  const Matrix2& W = p.rolling_delassus[c];
+  if (p.dimension == 2) return Vector2(std::clamp(R.x() - u.x() / W(0, 0), -radius, radius), 0.0);
+  return minimizeOnDisc(W, R, u, radius);
+}
+
+void rollingUpdate(const ContactProblem& p, int c, double normal_impulse, double omega, Vector2& R,
+                   VectorX& v, double& change2, double& size2) {
+  const Vector2 target = rollingTarget(p, c, normal_impulse, R, p.rollingVelocity(c, v));
+  const Vector2 dR = omega * (target - R);
+  p.applyRolling(c, dR, v);
+  R += dR;
+  const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
+  change2 += dR.squaredNorm() / lever2;
+  size2 += R.squaredNorm() / lever2;
+}
+
+// natural-map residual of the rolling rows, in the same units
+void rollingResidual(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
+                     const VectorX& v, double& f2, double& scale2) {
+  const Vector2 u = p.rollingVelocity(c, v);
+  const Vector2 f = R - rollingTarget(p, c, normal_impulse, R, u);
+  const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
+  f2 += f.squaredNorm() / lever2;
+  scale2 += std::max(R.squaredNorm(), (u / p.rolling_delassus[c](0, 0)).squaredNorm()) / lever2;
+}
+
+bool hasRollingRow(const ContactProblem& p, const std::vector<Vector2>* R, int c) {
+  return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0;
+}
+
+// Applies a warm start of the rolling rows; rows without a bound keep none.
+void warmStartRolling(const ContactProblem& p, std::vector<Vector2>* R, VectorX& v) {
+  if (R == nullptr || !p.rolling) return;
+  for (int c = 0; c < p.size(); ++c) {
+    if (p.rolling_bound[c] > 0.0)
+      p.applyRolling(c, (*R)[c], v);
+    else
+      (*R)[c].setZero();
+  }
+}
+
 // The stats of a solve over islands: the worst island's sweeps, residual and status.
 void mergeIsland(NlgsStats& total, const NlgsStats& island) {
   total.iterations = std::max(total.iterations, island.iterations);
@@ -100,11 +174,13 @@ double relative(double num2, double den2) {
 namespace {
 // natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
 // comparable to P (Siconos mixes impulses and velocities)
-double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, const VectorX& v,
-                       const NlgsWorkspace& ws, int count) {
+double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
+                       const std::vector<Vector2>* R, const VectorX& v, const NlgsWorkspace& ws,
+                       int count) {
   double f2 = 0.0, scale2 = 0.0;
   for (int k = 0; k < count; ++k) {
     const int c = ws.order[k];
+    if (hasRollingRow(p, R, c)) rollingResidual(p, c, P[c].x(), (*R)[c], v, f2, scale2);
     Vector3 u = p.localVelocity(c, v);
     u.x() += p.normal_bias[c];
     const Vector3 ru = u / p.delassus[c](0, 0);
@@ -117,17 +193,20 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P, c
 
 namespace {
 NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
-                        std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws, int n);
+                        std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
+                        NlgsWorkspace& ws, int n);
 }  // namespace
 
 NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings,
-                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws) {
+                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws,
+                           std::vector<Vector2>* R) {
   NlgsStats total;
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
+  warmStartRolling(p, R, v);
   if (p.size() == 0) return total;
   for (int island = 0; island < p.islandCount(); ++island) {
     const int n = selectIsland(p, island, ws);
-    NlgsStats island_stats = coulombIsland(p, settings, P, v, ws, n);
+    NlgsStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
     island_stats.updates = static_cast<long>(island_stats.iterations) * n;
     mergeIsland(total, island_stats);
   }
@@ -162,7 +241,8 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
 }
 
 NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
-                        std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws, int n) {
+                        std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
+                        NlgsWorkspace& ws, int n) {
   NlgsStats stats;
   const double omega = settings.relaxation;
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
@@ -204,17 +284,18 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       P[c] = P_new;
       change2 += dP.squaredNorm();
       size2 += P_new.squaredNorm();
+      if (hasRollingRow(p, R, c)) rollingUpdate(p, c, P_new.x(), omega, (*R)[c], v, change2, size2);
     }
     stats.iterations = it + 1;
     if (relative(change2, size2) < settings.tolerance) {
-      stats.residual = coulombResidual(p, P, v, ws, n);
+      stats.residual = coulombResidual(p, P, R, v, ws, n);
       if (stats.residual < settings.tolerance) {
         stats.status = SolverStatus::Converged;
         return stats;
       }
     }
   }
-  stats.residual = coulombResidual(p, P, v, ws, n);
+  stats.residual = coulombResidual(p, P, R, v, ws, n);
   stats.status =
       stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
   return stats;
@@ -322,31 +403,6 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
 
 namespace {
 
-// argmin over |y| <= radius of 1/2 (y - y0)^T A (y - y0) + b^T (y - y0), A SPD 2x2: the
-// unconstrained minimizer, or the boundary point where (A + nu I) y = A y0 - b, nu >= 0,
-// found by bisection on nu (|y(nu)| decreases with nu).
-Vector2 minimizeOnDisc(const Matrix2& A, const Vector2& y0, const Vector2& b, double radius) {
-  if (radius <= 0.0) return Vector2::Zero();
-  const double trace = A(0, 0) + A(1, 1);
-  if (std::abs(A(0, 1)) <= 1e-12 * trace && std::abs(A(0, 0) - A(1, 1)) <= 1e-12 * trace) {
-    // isotropic (spheres): the metric projection is the Euclidean one
-    const Vector2 y = y0 - b / A(0, 0);
-    const double norm = y.norm();
-    return norm <= radius ? y : Vector2(y * (radius / norm));
-  }
-  const Vector2 rhs = A * y0 - b;
-  Vector2 y = A.ldlt().solve(rhs);
-  if (y.norm() <= radius) return y;
-  double lo = 0.0, hi = rhs.norm() / radius;  // at nu = hi, |y| <= |rhs| / nu = radius
-  for (int it = 0; it < 100; ++it) {
-    const double nu = 0.5 * (lo + hi);
-    y = (A + nu * Matrix2::Identity()).ldlt().solve(rhs);
-    (y.norm() > radius ? lo : hi) = nu;
-  }
-  y = (A + hi * Matrix2::Identity()).ldlt().solve(rhs);
-  return y * std::min(1.0, radius / y.norm());
-}
-
 struct FrictionBlock {
   Vector2 coupling;  // W_TN / W_NN
   Matrix2 schur;     // W_TT - W_TN W_NT / W_NN
@@ -370,7 +426,8 @@ FrictionBlock frictionBlock(const ContactProblem& p, int c) {
 NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settings,
                              const FrictionStageOptions& options,
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
-                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws) {
+                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws,
+                             std::vector<Vector2>* R) {
   NlgsStats stats;
   const int n = p.size();
   const int dT = p.dimension - 1;
@@ -442,8 +499,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     warm.x() += delta[c];
     p.applyImpulse(c, warm, v);
   }
+  warmStartRolling(p, R, v);
   bool any = false;
-  for (int c = 0; c < n; ++c) any = any || ws.threshold[c] > 0.0;
+  for (int c = 0; c < n; ++c)
+    any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
   if (!any) return stats;
 
   int count = 0;  // rows of the current island, in ws.order
@@ -495,6 +554,13 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     double f2 = 0.0, scale2 = 0.0;
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
+      // rolling resistance, bounded by the stage-5a normal impulse like the friction
+      if (hasRollingRow(p, R, c)) {
+        if (residual_only)
+          rollingResidual(p, c, lambda_N[c], (*R)[c], v, f2, scale2);
+        else
+          rollingUpdate(p, c, lambda_N[c], settings.relaxation, (*R)[c], v, change2, size2);
+      }
       if (ws.threshold[c] <= 0.0 && !held(c)) continue;
       const Vector2& coupling = ws.coupling[c];
       const Matrix3& W = p.delassus[c];

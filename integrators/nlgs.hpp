@@ -59,8 +59,11 @@ struct NlgsWorkspace {
 };
 
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.
+// rolling (problems with rolling rows): in the warm start, out the rolling torque impulses,
+// bounded by rolling_bound times P_N and solved in the same sweeps.
 NlgsStats solveCoulombNlgs(const ContactProblem& problem, const NlgsSettings& settings,
-                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& workspace);
+                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& workspace,
+                           std::vector<Vector2>* rolling = nullptr);
 
 // Stage 5a. lambda_N: in the warm start, out the physical normal impulses.
 NlgsStats solveNormalStage(const ContactProblem& problem, const NlgsSettings& settings,
@@ -85,7 +88,8 @@ struct FrictionStageOptions {
   FrictionThreshold threshold = FrictionThreshold::Physical;
 };
 
-// Stage 5b. lambda_N: the normal impulses of stage 5a (thresholds mu lambda_N). delta: in the
+// Stage 5b. rolling: as for solveCoulombNlgs, the bound taken from the stage-5a lambda_N.
+// lambda_N: the normal impulses of stage 5a (thresholds mu lambda_N). delta: in the
 // warm start, out the bilateral normal corrections of GLOBAL mode (zero otherwise).
 // lambda_T: in the warm start, out the tangential impulses. v: in v1 (after 5a), out v2.
 // The impulse on the rows H of contact c is then
@@ -93,7 +97,8 @@ struct FrictionStageOptions {
 NlgsStats solveFrictionStage(const ContactProblem& problem, const NlgsSettings& settings,
                              const FrictionStageOptions& options,
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
-                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& workspace);
+                             std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& workspace,
+                             std::vector<Vector2>* rolling = nullptr);
 
 // The W_N component of LOCAL tangents (t~ = W_T - W_N W_NT / W_NN) times lambda_T; zero in
 // the other modes.

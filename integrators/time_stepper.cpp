@@ -71,6 +71,8 @@ void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
   previous_impulse_.clear();
   staged_.clear();
   previous_staged_.clear();
+  rolling_.clear();
+  previous_rolling_.clear();
   limit_impulse_.assign(model_.limits.size(), 0.0);
   limit_staged_.assign(model_.limits.size(), StagedImpulse{});
   cdata_ = ContactData(model_, cmodel_);
@@ -93,6 +95,9 @@ const StepStats& TimeStepper::step() {
     solveCatchingUp();  // 5 (B)
   update();             // 6
   diagnose();
+  // periodic boundaries: bodies that left the cell re-enter at the other side; after the
+  // diagnostics, which evaluate the gaps of this step's contacts on this step's images
+  wrapPeriodic(cmodel_, q_);
   return stats_;
 }
 
@@ -110,6 +115,10 @@ void TimeStepper::detect() {
   impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
   std::swap(staged_, previous_staged_);
   staged_.assign(cdata_.contacts.size(), StagedImpulse{});
+  if (cmodel_.rolling) {
+    std::swap(rolling_, previous_rolling_);
+    rolling_.assign(cdata_.contacts.size(), Vector2::Zero());
+  }
   stats_.candidates = static_cast<int>(cdata_.contacts.size());
   stats_.t_detect = seconds(start);
 }
@@ -137,6 +146,7 @@ void TimeStepper::assemble() {
   nlgs_ws_.prepare(n, model_.nv);
   // warm start from the previous step's impulses of the same contacts
   P_.assign(n, Vector3::Zero());
+  R_.assign(problem_.rolling ? n : 0, Vector2::Zero());
   for (int c = 0; c < n; ++c) {
     const int id = problem_.contact[c];
     if (id < 0) {
@@ -146,6 +156,8 @@ void TimeStepper::assemble() {
     const int previous = cdata_.contacts[id].previous;
     if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()))
       P_[c] = previous_impulse_[previous];
+    if (problem_.rolling && previous >= 0 && previous < static_cast<int>(previous_rolling_.size()))
+      R_[c] = previous_rolling_[previous];
   }
   std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
   stats_.t_assemble += seconds(start);
@@ -160,7 +172,8 @@ void TimeStepper::solveMoreauJean() {
   const auto start = Clock::now();
   VectorX& v = v_free_;  // becomes v_{k+1}
   stats_.kinetic_free = metricKinetic(v);
-  const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_);
+  const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_,
+                                       problem_.rolling ? &R_ : nullptr);
   stats_.iterations_stage1 = s.iterations;
   stats_.iterations_stage2 = 0;
   stats_.updates = s.updates;
@@ -214,7 +227,7 @@ void TimeStepper::solveCatchingUp() {
   if (!cmodel_.frictionless) {
     const NlgsStats friction =
         solveFrictionStage(problem_, settings_.friction_stage, settings_.friction, lambda_N_,
-                           delta_, lambda_T_, v, nlgs_ws_);
+                           delta_, lambda_T_, v, nlgs_ws_, problem_.rolling ? &R_ : nullptr);
     stats_.iterations_stage2 = friction.iterations;
     stats_.updates += friction.updates;
     stats_.residual = std::max(stats_.residual, friction.residual);
@@ -249,10 +262,16 @@ void TimeStepper::update() {
     stats_.work_normal += P_[c].x() * u_mean.x();
     stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
     const int id = problem_.contact[c];
-    if (id < 0)
+    if (id < 0) {
       limit_impulse_[-1 - id] = P_[c].x();
-    else
-      impulse_[id] = P_[c];
+      continue;
+    }
+    impulse_[id] = P_[c];
+    if (problem_.rolling) {
+      rolling_[id] = R_[c];
+      stats_.work_tangent +=
+          R_[c].dot(0.5 * (problem_.rollingVelocity(c, v_) + problem_.rollingVelocity(c, v_free_)));
+    }
   }
   v_ = v_free_;
   integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);

@@ -95,6 +95,9 @@ class TimeStepper {
   const ContactData& contactData() const { return cdata_; }
   // impulse (normal, tangents) of each contact of contactData().contacts in the last step
   const std::vector<Vector3>& impulses() const { return impulse_; }
+  // rolling torque impulse of each contact in the last step (tangent axes; 2D: z), empty
+  // when no law has rolling resistance
+  const std::vector<Vector2>& rollingImpulses() const { return rolling_; }
   // impulse of each joint limit (Model::limits) in the last step
   const std::vector<double>& limitImpulses() const { return limit_impulse_; }
   double energy();  // kinetic + potential at the current state
@@ -135,6 +138,8 @@ class TimeStepper {
   std::vector<StagedImpulse> limit_staged_;
   // warm-start value of problem row c (a contact's previous impulse, or a limit's)
   const StagedImpulse* previousStaged(int c) const;
+  std::vector<Vector2> rolling_, previous_rolling_;  // aligned with contacts / previous
+  std::vector<Vector2> R_;                           // problem rows
   std::vector<double> delta_;
   std::vector<Vector3> P_;  // problem rows
   std::vector<double> lambda_N_;

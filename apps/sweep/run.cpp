@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "apps/sweep/layer_output.hpp"
 #include "apps/sweep/vtk_writer.hpp"
 #include "framework/error.hpp"
 
@@ -250,6 +251,11 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     for (Eigen::Index i = 0; i < stepper.v().size(); ++i)
       state << "v," << i << ',' << exactNumber(stepper.v()[i]) << '\n';
     writeFileAtomically(options.out_dir + "/final_state.csv", state.str());
+    if (settings.output.layer) {
+      const LayerMetrics layer = measureLayer(scene, stepper.q(), *settings.output.layer);
+      writeLayerJson(layer, *settings.output.layer, options.out_dir + "/layer.json");
+      writeHeightMapPng(layer, *settings.output.layer, options.out_dir + "/layer_height.png");
+    }
     writeSummaryJson(summary, options.out_dir + "/summary.json");
   }
   return summary;

@@ -13,6 +13,7 @@
 #include "contact/mesh_io.hpp"
 #include "framework/error.hpp"
 #include "models/funnel.hpp"
+#include "models/powder_bed.hpp"
 
 namespace sweep {
 
@@ -81,6 +82,8 @@ class SceneParser {
     if (root.has("scheme")) parseScheme(root["scheme"]);
     if (root.has("time")) parseTime(root["time"]);
     if (root.has("output")) parseOutput(root["output"]);
+    // a powder bed is judged by its layer unless the file says how
+    if (powder_layer_ && !out_.run.output.layer) out_.run.output.layer = powder_layer_;
     checkNames(root);
   }
 
@@ -112,18 +115,19 @@ class SceneParser {
       if (!(law.restitution >= 0.0 && law.restitution <= 1.0))
         f["restitution"].fail("must be in [0, 1]");
     }
+    law.rolling = f.nonNegative("rolling_resistance", law.rolling);
     return law;
   }
 
   void parseContact(const YamlField& contact) {
-    contact.allowOnly({"friction", "restitution", "pairs"});
+    contact.allowOnly({"friction", "restitution", "rolling_resistance", "pairs"});
     out_.spec.default_law = parseLaw(contact, out_.spec.default_law);
     if (!contact.has("pairs")) return;
     const YamlField pairs = contact["pairs"];
     pairs.requireSequence();
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const YamlField p = pairs.at(i);
-      p.allowOnly({"materials", "friction", "restitution"});
+      p.allowOnly({"materials", "friction", "restitution", "rolling_resistance"});
       const YamlField names = p["materials"];
       if (!names.isSequence() || names.size() != 2) names.fail("must name two materials");
       ContactLawSpec law{names.at(0).text(), names.at(1).text(),
@@ -344,10 +348,12 @@ class SceneParser {
       const std::string type = g["type"].text();
       if (type == "hall_funnel")
         hallFunnelGenerator(g);
+      else if (type == "powder_bed")
+        powderBedGenerator(g);
       else if (type == "disks" || type == "spheres")
         latticeGenerator(g, type == "disks");
       else
-        g["type"].fail("must be disks, spheres or hall_funnel");
+        g["type"].fail("must be disks, spheres, hall_funnel or powder_bed");
     }
   }
 
@@ -432,6 +438,98 @@ class SceneParser {
     out_.spec.bodies.insert(out_.spec.bodies.end(), funnel.bodies.begin(), funnel.bodies.end());
   }
 
+  void powderBedGenerator(const YamlField& g) {
+    g.allowOnly({"type",
+                 "count",
+                 "sizes",
+                 "density",
+                 "friction",
+                 "restitution",
+                 "rolling_resistance",
+                 "length",
+                 "width",
+                 "height",
+                 "gap",
+                 "blade_thickness",
+                 "blade_start",
+                 "speed",
+                 "travel",
+                 "heap_length",
+                 "settle_time",
+                 "lattice_spacing",
+                 "spreader",
+                 "roller_radius",
+                 "roller_spin",
+                 "plate",
+                 "seed"});
+    if (out_.spec.dimension != 3) g["type"].fail("is a 3D generator");
+    if (powder_layer_) g["type"].fail("a scene holds one powder bed");
+    PowderBedParameters p;
+    const long count = g.integer("count", p.count);
+    if (count < 1 || count > max_count_) g["count"].fail("must be in [1, " + countLimit() + "]");
+    p.count = static_cast<int>(count);
+    if (g.has("sizes")) {
+      const YamlField sizes = g["sizes"];
+      sizes.requireMap();
+      const std::string kind = sizes.text("kind", "discrete");
+      if (kind == "discrete") {
+        sizes.allowOnly({"kind", "diameters", "mass_fractions"});
+        p.sizes = PowderBedParameters::Sizes::Discrete;
+        p.diameters = sizes["diameters"].numbers();
+        p.mass_fractions = sizes["mass_fractions"].numbers();
+      } else if (kind == "lognormal") {
+        sizes.allowOnly({"kind", "d50", "geometric_std", "d_min", "d_max"});
+        p.sizes = PowderBedParameters::Sizes::LogNormal;
+        p.d50 = sizes.number("d50", p.d50);
+        p.geometric_std = sizes.number("geometric_std", p.geometric_std);
+        p.d_min = sizes.number("d_min", p.d_min);
+        p.d_max = sizes.number("d_max", p.d_max);
+      } else {
+        sizes["kind"].fail("must be discrete or lognormal");
+      }
+    }
+    for (const auto& [key, field] :
+         std::vector<std::pair<const char*, double*>>{{"density", &p.density},
+                                                      {"friction", &p.friction},
+                                                      {"restitution", &p.restitution},
+                                                      {"rolling_resistance", &p.rolling_resistance},
+                                                      {"length", &p.length},
+                                                      {"width", &p.width},
+                                                      {"height", &p.height},
+                                                      {"gap", &p.gap},
+                                                      {"blade_thickness", &p.blade_thickness},
+                                                      {"blade_start", &p.blade_start},
+                                                      {"speed", &p.speed},
+                                                      {"travel", &p.travel},
+                                                      {"heap_length", &p.heap_length},
+                                                      {"settle_time", &p.settle_time},
+                                                      {"lattice_spacing", &p.lattice_spacing},
+                                                      {"roller_radius", &p.roller_radius},
+                                                      {"roller_spin", &p.roller_spin}})
+      *field = g.number(key, *field);
+    const std::string spreader = g.text("spreader", "blade");
+    if (spreader != "blade" && spreader != "roller") g["spreader"].fail("must be blade or roller");
+    p.roller = spreader == "roller";
+    const std::string plate = g.text("plate", "flat");
+    if (plate != "flat" && plate != "rough") g["plate"].fail("must be flat or rough");
+    p.rough_plate = plate == "rough";
+    const long seed = g.integer("seed", 1);
+    if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
+    p.seed = static_cast<std::uint32_t>(seed);
+    SceneSpec bed;
+    try {
+      bed = powderBed(p);
+    } catch (const InputError& e) {
+      throw InputError(path_ + ": " + g.path() + ": " + e.what());
+    }
+    for (const MaterialSpec& m : bed.materials) addMaterial(m, g);
+    out_.spec.laws.insert(out_.spec.laws.end(), bed.laws.begin(), bed.laws.end());
+    out_.spec.bodies.insert(out_.spec.bodies.end(), bed.bodies.begin(), bed.bodies.end());
+    out_.spec.detection.path = bed.detection.path;
+    out_.spec.detection.periodic = bed.detection.periodic;
+    powder_layer_ = defaultLayerWindow(p);
+  }
+
   void parseUrdfs(const YamlField& list) {
     list.requireSequence();
     for (std::size_t i = 0; i < list.size(); ++i) {
@@ -506,7 +604,8 @@ class SceneParser {
   }
 
   void parseDetection(const YamlField& f) {
-    f.allowOnly({"path", "speed_factor", "margin", "self_collision", "max_initial_overlap"});
+    f.allowOnly(
+        {"path", "speed_factor", "margin", "self_collision", "max_initial_overlap", "periodic"});
     DetectionSettings& d = out_.spec.detection;
     const std::string path = f.text("path", "automatic");
     if (path == "automatic")
@@ -521,6 +620,17 @@ class SceneParser {
     d.floor = f.nonNegative("margin", d.floor);
     d.self_collision = f.boolean("self_collision", d.self_collision);
     out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);
+    if (f.has("periodic")) {
+      const YamlField periodic = f["periodic"];
+      periodic.allowOnly({"axis", "low", "high"});
+      const std::string axis = periodic["axis"].text();
+      if (axis != "x" && axis != "y" && (axis != "z" || out_.spec.dimension == 2))
+        periodic["axis"].fail(out_.spec.dimension == 2 ? "must be x or y" : "must be x, y or z");
+      d.periodic.axis = axis[0] - 'x';
+      d.periodic.low = periodic["low"].number();
+      d.periodic.high = periodic["high"].number();
+      if (!(d.periodic.high > d.periodic.low)) periodic["high"].fail("must be > low");
+    }
   }
 
   NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
@@ -593,8 +703,27 @@ class SceneParser {
   }
 
   void parseOutput(const YamlField& f) {
-    f.allowOnly({"stats", "timings", "vtk_every", "vtk_interval"});
+    f.allowOnly({"stats", "timings", "vtk_every", "vtk_interval", "layer"});
     OutputSettings& o = out_.run.output;
+    if (f.has("layer")) {
+      const YamlField l = f["layer"];
+      l.allowOnly({"x_min", "x_max", "z_min", "z_max", "plate", "gap", "cell", "resolution"});
+      LayerWindow w = powder_layer_ ? *powder_layer_ : LayerWindow{};
+      w.x_min = l.number("x_min", w.x_min);
+      w.x_max = l.number("x_max", w.x_max);
+      w.z_min = l.number("z_min", w.z_min);
+      w.z_max = l.number("z_max", w.z_max);
+      w.plate = l.number("plate", w.plate);
+      w.gap = l.number("gap", w.gap);
+      w.cell = l.number("cell", w.cell);
+      w.resolution = l.number("resolution", w.resolution);
+      try {
+        w.validate("layer");
+      } catch (const InputError& e) {
+        throw InputError(path_ + ": " + l.path() + ": " + e.what());
+      }
+      o.layer = w;
+    }
     o.stats = f.boolean("stats", o.stats);
     o.timings = f.boolean("timings", o.timings);
     o.vtk_every = f.integer("vtk_every", o.vtk_every);
@@ -619,7 +748,8 @@ class SceneParser {
 
   const std::string& path_;
   SceneFile& out_;
-  const long max_count_;  // bodies per generator
+  const long max_count_;                     // bodies per generator
+  std::optional<LayerWindow> powder_layer_;  // the powder_bed generator's default window
   // spec.bodies from here on are the file's bodies list
   std::size_t explicit_from_ = std::numeric_limits<std::size_t>::max();
 };
@@ -730,12 +860,17 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "contact" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "friction" << YAML::Value << spec.default_law.friction;
   out << YAML::Key << "restitution" << YAML::Value << spec.default_law.restitution;
+  if (spec.default_law.rolling > 0.0)
+    out << YAML::Key << "rolling_resistance" << YAML::Value << spec.default_law.rolling;
   out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
   for (const ContactLawSpec& l : spec.laws) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "materials" << YAML::Value << YAML::Flow
         << YAML::BeginSeq << l.material_a << l.material_b << YAML::EndSeq;
     out << YAML::Key << "friction" << YAML::Value << l.law.friction;
-    out << YAML::Key << "restitution" << YAML::Value << l.law.restitution << YAML::EndMap;
+    out << YAML::Key << "restitution" << YAML::Value << l.law.restitution;
+    if (l.law.rolling > 0.0)
+      out << YAML::Key << "rolling_resistance" << YAML::Value << l.law.rolling;
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;
 

@@ -2,10 +2,12 @@
 // Scene files: YAML describing a scene (bodies, generators, URDF models, materials), the
 // scheme and its settings, the time span and the outputs. The format is documented in
 // docs/scene_format.md; every rejection names the file, the field path and the value.
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "integrators/time_stepper.hpp"
+#include "models/powder_bed.hpp"
 #include "models/scene_spec.hpp"
 
 namespace sweep {
@@ -17,6 +19,8 @@ struct OutputSettings {
   bool timings = true;
   long vtk_every = 0;         // VTK snapshot every N steps (0: off)
   double vtk_interval = 0.0;  // or every so much simulated time (0: off)
+  // layer metrics of the spheres at the end of the run (layer.json, layer_height.png)
+  std::optional<LayerWindow> layer;
 };
 
 struct RunSettings {

@@ -1,0 +1,112 @@
+#include "apps/sweep/layer_output.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "apps/sweep/run.hpp"
+#include "framework/kinematics.hpp"
+
+namespace sweep {
+
+LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window) {
+  Data data(scene.model);
+  forwardKinematics(scene.model, data, q);
+  std::vector<Vector3> centers;
+  std::vector<double> radii;
+  for (const Geometry& g : scene.cmodel.geometries) {
+    if (g.body.kind != BodyRef::Kind::Dynamic || g.shape.type != ShapeType::Sphere) continue;
+    centers.push_back((data.world_pose[g.body.index] * g.placement).translation);
+    radii.push_back(g.shape.radius);
+  }
+  return layerMetrics(centers, radii, window);
+}
+
+void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::string& path) {
+  std::ostringstream j;
+  const auto n = exactNumber;
+  j << "{\n"
+    << "  \"window\": {\"x_min\": " << n(w.x_min) << ", \"x_max\": " << n(w.x_max)
+    << ", \"z_min\": " << n(w.z_min) << ", \"z_max\": " << n(w.z_max)
+    << ", \"plate\": " << n(w.plate) << ", \"gap\": " << n(w.gap) << ", \"cell\": " << n(w.cell)
+    << ", \"resolution\": " << n(w.resolution) << "},\n"
+    << "  \"packing_fraction\": " << n(m.packing_fraction) << ",\n"
+    << "  \"effective_depth\": " << n(m.effective_depth) << ",\n"
+    << "  \"effective_depth_over_gap\": " << n(m.effective_depth / w.gap) << ",\n"
+    << "  \"solid_thickness\": " << n(m.solid_thickness) << ",\n"
+    << "  \"coverage\": " << n(m.coverage) << ",\n"
+    << "  \"height\": {\"mean\": " << n(m.height_mean) << ", \"std\": " << n(m.height_std)
+    << ", \"highest_top\": " << n(m.highest_top) << "},\n"
+    << "  \"cell_packing\": {\"cells\": " << m.cells << ", \"mean\": " << n(m.cell_mean)
+    << ", \"std\": " << n(m.cell_std) << ", \"min\": " << n(m.cell_min)
+    << ", \"max\": " << n(m.cell_max) << "},\n"
+    << "  \"particles\": " << m.particles << "\n"
+    << "}\n";
+  writeFileAtomically(path, j.str());
+}
+
+namespace {
+
+void appendChunk(std::string& png, const char* type, const std::string& data) {
+  auto be32 = [&](std::uint32_t x) {
+    for (int s = 24; s >= 0; s -= 8) png.push_back(static_cast<char>((x >> s) & 0xff));
+  };
+  be32(static_cast<std::uint32_t>(data.size()));
+  const std::string body = std::string(type, 4) + data;
+  png += body;
+  be32(static_cast<std::uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
+}
+
+// a perceptually ordered dark-blue to yellow ramp (viridis at five stops, linear between)
+std::array<unsigned char, 3> colour(double t) {
+  static const double stops[5][3] = {
+      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
+  t = std::clamp(t, 0.0, 1.0) * 4.0;
+  const int i = std::min(3, static_cast<int>(t));
+  const double f = t - i;
+  std::array<unsigned char, 3> rgb;
+  for (int c = 0; c < 3; ++c)
+    rgb[c] =
+        static_cast<unsigned char>(std::lround(stops[i][c] + f * (stops[i + 1][c] - stops[i][c])));
+  return rgb;
+}
+
+}  // namespace
+
+void writeHeightMapPng(const LayerMetrics& m, const LayerWindow& w, const std::string& path) {
+  const int width = m.columns_x, height = m.columns_z;
+  std::string raw;
+  raw.reserve(static_cast<std::size_t>(height) * (1 + 3 * width));
+  const double top = 1.5 * w.gap;
+  for (int row = 0; row < height; ++row) {
+    raw.push_back(0);  // filter: none
+    for (int i = 0; i < width; ++i) {
+      const float h = m.height_map[static_cast<std::size_t>(row) * width + i];
+      const auto rgb = h > 0.0f ? colour(h / top) : std::array<unsigned char, 3>{0, 0, 0};
+      raw.append(reinterpret_cast<const char*>(rgb.data()), 3);
+    }
+  }
+  uLongf packed_size = compressBound(static_cast<uLong>(raw.size()));
+  std::string packed(packed_size, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size,
+                reinterpret_cast<const Bytef*>(raw.data()), static_cast<uLong>(raw.size()),
+                Z_BEST_COMPRESSION) != Z_OK)
+    throw std::runtime_error(path + ": cannot compress the height map");
+  packed.resize(packed_size);
+  std::string png = "\x89PNG\r\n\x1a\n";
+  std::string header;
+  for (std::uint32_t x : {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height)})
+    for (int s = 24; s >= 0; s -= 8) header.push_back(static_cast<char>((x >> s) & 0xff));
+  header += std::string("\x08\x02\x00\x00\x00", 5);  // 8-bit RGB, deflate, no interlace
+  appendChunk(png, "IHDR", header);
+  appendChunk(png, "IDAT", packed);
+  appendChunk(png, "IEND", "");
+  writeFileAtomically(path, png);
+}
+
+}  // namespace sweep

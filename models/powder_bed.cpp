@@ -1,0 +1,367 @@
+#include "models/powder_bed.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <sstream>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+namespace {
+
+void require(bool ok, const std::string& owner, const std::string& field, double value,
+             const std::string& rule) {
+  if (ok) return;
+  std::ostringstream s;
+  s << owner << ": " << field << ": " << rule << ", got " << value;
+  throw InputError(s.str());
+}
+
+bool positive(double x) {
+  return std::isfinite(x) && x > 0.0;
+}
+
+// uniform in (0, 1) from the raw generator: the same numbers with every standard library
+double unit(std::mt19937& rng) {
+  return (static_cast<double>(rng()) + 0.5) / 4294967296.0;
+}
+
+Pose at(const Vector3& x) {
+  Pose p;
+  p.translation = x;
+  return p;
+}
+
+// a half-space whose outward normal is n (the shape's normal is its local z)
+BodySpec plane(const std::string& name, const Vector3& point, const Vector3& n) {
+  BodySpec b;
+  b.name = name;
+  b.kind = BodySpec::Kind::Fixed;
+  b.material = "wall";
+  b.shape = Shape::halfSpace();
+  b.pose.translation = point;
+  b.pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vector3::UnitZ(), n).toRotationMatrix();
+  return b;
+}
+
+BodySpec box(const std::string& name, const Vector3& center, const Vector3& size) {
+  BodySpec b;
+  b.name = name;
+  b.kind = BodySpec::Kind::Driven;
+  b.material = "wall";
+  b.shape = Shape::box(size);
+  b.pose = at(center);
+  b.motion.kind = MotionSpec::Kind::Fixed;
+  return b;
+}
+
+}  // namespace
+
+void PowderBedParameters::validate() const {
+  const std::string o = "powder_bed";
+  require(count >= 1, o, "count", count, "must be >= 1");
+  if (sizes == Sizes::Discrete) {
+    require(!diameters.empty() && diameters.size() == mass_fractions.size(), o, "mass_fractions",
+            static_cast<double>(mass_fractions.size()), "must hold one fraction per diameter");
+    double total = 0.0;
+    for (std::size_t i = 0; i < diameters.size(); ++i) {
+      require(positive(diameters[i]), o, "diameters", diameters[i], "must be > 0");
+      require(std::isfinite(mass_fractions[i]) && mass_fractions[i] >= 0.0, o, "mass_fractions",
+              mass_fractions[i], "must be >= 0");
+      total += mass_fractions[i];
+    }
+    require(total > 0.0, o, "mass_fractions", total, "must not all be zero");
+  } else {
+    require(positive(d50), o, "d50", d50, "must be > 0");
+    require(std::isfinite(geometric_std) && geometric_std >= 1.0, o, "geometric_std", geometric_std,
+            "must be >= 1");
+    require(positive(d_min), o, "d_min", d_min, "must be > 0");
+    require(std::isfinite(d_max) && d_max > d_min, o, "d_max", d_max, "must be > d_min");
+  }
+  require(positive(density), o, "density", density, "must be > 0");
+  require(std::isfinite(friction) && friction >= 0.0, o, "friction", friction, "must be >= 0");
+  require(restitution >= 0.0 && restitution <= 1.0, o, "restitution", restitution,
+          "must be in [0, 1]");
+  require(std::isfinite(rolling_resistance) && rolling_resistance >= 0.0, o, "rolling_resistance",
+          rolling_resistance, "must be >= 0");
+  require(std::isfinite(gravity), o, "gravity", gravity, "must be finite");
+  for (const auto& [name, value] : {std::pair<const char*, double>{"length", length},
+                                    {"width", width},
+                                    {"height", height},
+                                    {"gap", gap},
+                                    {"blade_thickness", blade_thickness},
+                                    {"speed", speed},
+                                    {"travel", travel},
+                                    {"heap_length", heap_length},
+                                    {"roller_radius", roller_radius}})
+    require(positive(value), o, name, value, "must be > 0");
+  require(std::isfinite(blade_start) && blade_start >= 0.0, o, "blade_start", blade_start,
+          "must be >= 0");
+  require(std::isfinite(settle_time) && settle_time >= 0.0, o, "settle_time", settle_time,
+          "must be >= 0");
+  require(std::isfinite(roller_spin), o, "roller_spin", roller_spin, "must be finite");
+  require(lattice_spacing >= 1.0 && lattice_spacing < 10.0, o, "lattice_spacing", lattice_spacing,
+          "must be in [1, 10)");
+  require(gap < height, o, "gap", gap, "must be below height");
+  const double front = blade_start + (roller ? 2.0 * roller_radius : blade_thickness);
+  require(front + heap_length + travel < length, o, "travel", travel,
+          "must leave the heap and the blade inside the domain (blade_start + thickness + "
+          "heap_length + travel < length)");
+}
+
+std::vector<double> powderDiameters(const PowderBedParameters& p) {
+  std::mt19937 rng(p.seed);
+  std::vector<double> d(p.count);
+  if (p.sizes == PowderBedParameters::Sizes::Discrete) {
+    // mass fractions to number fractions: n_i proportional to f_i / d_i^3
+    std::vector<double> cumulative(p.diameters.size());
+    double total = 0.0;
+    for (std::size_t i = 0; i < p.diameters.size(); ++i) {
+      total += p.mass_fractions[i] / std::pow(p.diameters[i], 3);
+      cumulative[i] = total;
+    }
+    for (double& x : d) {
+      const double u = unit(rng) * total;
+      const std::size_t i = std::min<std::size_t>(
+          std::lower_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin(),
+          p.diameters.size() - 1);
+      x = p.diameters[i];
+    }
+  } else {
+    // Box-Muller on the raw generator, redrawn outside the cut
+    const double sigma = std::log(p.geometric_std);
+    for (double& x : d) {
+      do {
+        const double z = std::sqrt(-2.0 * std::log(unit(rng))) * std::cos(2.0 * M_PI * unit(rng));
+        x = p.d50 * std::exp(sigma * z);
+      } while (x < p.d_min || x > p.d_max);
+    }
+  }
+  return d;
+}
+
+SceneSpec powderBed(const PowderBedParameters& p) {
+  p.validate();
+  const std::vector<double> diameters = powderDiameters(p);
+  const double largest = *std::max_element(diameters.begin(), diameters.end());
+  SceneSpec spec;
+  spec.source = "powder_bed";
+  spec.dimension = 3;
+  spec.gravity = Vector3(0.0, -p.gravity, 0.0);
+  spec.materials = {{"powder", p.density}, {"wall", 0.0}};
+  const ContactLaw law{p.friction, p.restitution, p.rolling_resistance};
+  spec.laws = {{"powder", "powder", law}, {"powder", "wall", law}};
+  spec.detection.path = DetectionPathChoice::Analytic;
+  spec.detection.periodic.axis = 2;
+  spec.detection.periodic.low = 0.0;
+  spec.detection.periodic.high = p.width;
+
+  spec.bodies.push_back(plane("plate", Vector3::Zero(), Vector3::UnitY()));
+  spec.bodies.push_back(plane("wall_start", Vector3::Zero(), Vector3::UnitX()));
+  spec.bodies.push_back(plane("wall_end", Vector3(p.length, 0.0, 0.0), -Vector3::UnitX()));
+  // blade and temporary walls span the period and a grain beyond each side, so that every
+  // image of a grain meets them
+  const double span = p.width + 4.0 * largest;
+  const double z_mid = 0.5 * p.width;
+  const double spread_time = p.travel / p.speed;
+  double front = 0.0;  // x of the face the heap rests against
+  if (!p.roller) {
+    BodySpec blade = box(
+        "blade", Vector3(p.blade_start + 0.5 * p.blade_thickness, 0.5 * (p.gap + p.height), z_mid),
+        Vector3(p.blade_thickness, p.height - p.gap, span));
+    blade.motion.kind = MotionSpec::Kind::Keyframes;
+    blade.motion.times = {p.settle_time, p.settle_time + spread_time};
+    blade.motion.positions = {blade.pose.translation,
+                              blade.pose.translation + Vector3(p.travel, 0.0, 0.0)};
+    spec.bodies.push_back(blade);
+    front = p.blade_start + p.blade_thickness;
+  } else {
+    // a capsule along z: translation from settle_time on, spin against the rolling direction
+    BodySpec roller;
+    roller.name = "roller";
+    roller.kind = BodySpec::Kind::Driven;
+    roller.material = "wall";
+    roller.shape = Shape::capsule(p.roller_radius, span);
+    roller.pose = at(Vector3(p.blade_start + p.roller_radius, p.gap + p.roller_radius, z_mid));
+    // a driven velocity motion cannot wait: the roller is held by the gate until then, and
+    // moves from t = 0 when settle_time is 0
+    roller.motion.kind = MotionSpec::Kind::Velocity;
+    roller.motion.linear_velocity = Vector3(p.speed, 0.0, 0.0);
+    const double spin = p.roller_spin != 0.0 ? p.roller_spin : p.speed / p.roller_radius;
+    roller.motion.angular_velocity = Vector3(0.0, 0.0, spin);
+    roller.pose.translation.x() -= p.speed * p.settle_time;  // at blade_start when spreading
+    spec.bodies.push_back(roller);
+    front = p.blade_start + 2.0 * p.roller_radius;
+  }
+  if (p.settle_time > 0.0) {
+    // the gate closes the gap under the blade, the fence the heap's front, until settle_time
+    BodySpec gate = box("gate", Vector3(front - 0.5 * p.blade_thickness, 0.5 * p.height, z_mid),
+                        Vector3(p.blade_thickness, p.height, span));
+    gate.motion.removal_time = p.settle_time;
+    spec.bodies.push_back(gate);
+    BodySpec fence = box(
+        "fence", Vector3(front + p.heap_length + 0.5 * p.blade_thickness, 0.5 * p.height, z_mid),
+        Vector3(p.blade_thickness, p.height, span));
+    fence.motion.removal_time = p.settle_time;
+    spec.bodies.push_back(fence);
+  }
+
+  if (p.rough_plate) {
+    // frozen spheres of the mean number diameter, centres on the plate, one row past each
+    // periodic boundary so that grains at the boundary meet them too
+    const double d = std::accumulate(diameters.begin(), diameters.end(), 0.0) / diameters.size();
+    require(p.length / d * (p.width / d) < 1e6, "powder_bed", "length", p.length,
+            "gives a rough plate of more than 10^6 spheres");
+    const int across = std::max(1, static_cast<int>(std::floor(p.width / d)));
+    const double pitch_z = p.width / across;
+    int k = 0;
+    for (double x = 0.5 * d; x < p.length; x += d)
+      for (int iz = -1; iz <= across; ++iz) {
+        BodySpec b;
+        b.name = "plate_sphere" + std::to_string(k++);
+        b.kind = BodySpec::Kind::Fixed;
+        b.material = "wall";
+        b.shape = Shape::sphere(0.5 * d);
+        b.pose = at(Vector3(x, 0.0, (iz + 0.5) * pitch_z));
+        spec.bodies.push_back(b);
+      }
+  }
+
+  // the heap: a lattice with pitch >= the largest diameter, the z pitch fitted to the period,
+  // jittered by a fraction of the free space so that columns do not stack exactly
+  const double pitch = largest * p.lattice_spacing;
+  require(p.heap_length / pitch < 1e6 && p.width / pitch < 1e6, "powder_bed", "heap_length",
+          p.heap_length, "and width must hold fewer than 10^6 grains across");
+  const int nx = static_cast<int>(std::floor(p.heap_length / pitch));
+  const int nz = static_cast<int>(std::floor(p.width / pitch));
+  require(nx >= 1 && nz >= 1, "powder_bed", "heap_length", p.heap_length,
+          "must hold one lattice pitch (and width too)");
+  const double pitch_z = p.width / nz;
+  const double base = p.rough_plate ? largest : 0.0;
+  std::mt19937 rng(p.seed + 1);
+  const double jitter = 0.5 * (pitch - largest);
+  for (int i = 0; i < p.count; ++i) {
+    const int ix = i % nx, iz = (i / nx) % nz, iy = i / (nx * nz);
+    BodySpec b;
+    b.name = "p" + std::to_string(i);
+    b.shape = Shape::sphere(0.5 * diameters[i]);
+    b.material = "powder";
+    const Vector3 shake(jitter * (2.0 * unit(rng) - 1.0), 0.0, jitter * (2.0 * unit(rng) - 1.0));
+    b.pose =
+        at(Vector3(front + (ix + 0.5) * pitch, base + (iy + 0.5) * pitch, (iz + 0.5) * pitch_z) +
+           shake);
+    spec.bodies.push_back(b);
+  }
+  return spec;
+}
+
+void LayerWindow::validate(const std::string& owner) const {
+  require(std::isfinite(x_min) && std::isfinite(x_max) && x_max > x_min, owner, "x_max", x_max,
+          "must be > x_min");
+  require(std::isfinite(z_min) && std::isfinite(z_max) && z_max > z_min, owner, "z_max", z_max,
+          "must be > z_min");
+  require(std::isfinite(plate), owner, "plate", plate, "must be finite");
+  require(positive(gap), owner, "gap", gap, "must be > 0");
+  require(positive(cell), owner, "cell", cell, "must be > 0");
+  require(positive(resolution), owner, "resolution", resolution, "must be > 0");
+  const double columns = (x_max - x_min) / resolution * ((z_max - z_min) / resolution);
+  require(columns <= 1e7, owner, "resolution", resolution,
+          "gives more than 10^7 height-map columns");
+}
+
+LayerWindow defaultLayerWindow(const PowderBedParameters& p) {
+  LayerWindow w;
+  w.z_min = 0.0;
+  w.z_max = p.width;
+  w.gap = p.gap;
+  w.plate = 0.0;
+  return w;
+}
+
+LayerMetrics layerMetrics(const std::vector<Vector3>& centers, const std::vector<double>& radii,
+                          const LayerWindow& w) {
+  LayerMetrics m;
+  const double res = w.resolution;
+  m.columns_x = std::max(1, static_cast<int>(std::round((w.x_max - w.x_min) / res)));
+  m.columns_z = std::max(1, static_cast<int>(std::round((w.z_max - w.z_min) / res)));
+  const double dx = (w.x_max - w.x_min) / m.columns_x, dz = (w.z_max - w.z_min) / m.columns_z;
+  m.height_map.assign(static_cast<std::size_t>(m.columns_x) * m.columns_z, 0.0f);
+  std::vector<double> in_gap(m.height_map.size(), 0.0), solid(m.height_map.size(), 0.0);
+  for (std::size_t s = 0; s < centers.size(); ++s) {
+    const Vector3& c = centers[s];
+    const double r = radii[s];
+    if (c.x() + r < w.x_min || c.x() - r > w.x_max) continue;
+    ++m.particles;
+    m.highest_top = std::max(m.highest_top, c.y() + r - w.plate);
+    const int i0 = std::max(0, static_cast<int>(std::floor((c.x() - r - w.x_min) / dx)));
+    const int i1 =
+        std::min(m.columns_x - 1, static_cast<int>(std::floor((c.x() + r - w.x_min) / dx)));
+    const int k0 = static_cast<int>(std::floor((c.z() - r - w.z_min) / dz));
+    const int k1 = static_cast<int>(std::floor((c.z() + r - w.z_min) / dz));
+    for (int k = k0; k <= k1; ++k) {
+      const double z = w.z_min + (k + 0.5) * dz;
+      const int row = ((k % m.columns_z) + m.columns_z) % m.columns_z;  // periodic in z
+      for (int i = i0; i <= i1; ++i) {
+        const double x = w.x_min + (i + 0.5) * dx;
+        const double h2 = r * r - (x - c.x()) * (x - c.x()) - (z - c.z()) * (z - c.z());
+        if (h2 <= 0.0) continue;
+        const double h = std::sqrt(h2);
+        const double bottom = c.y() - h - w.plate, top = c.y() + h - w.plate;
+        const std::size_t cell = static_cast<std::size_t>(row) * m.columns_x + i;
+        solid[cell] += top - std::max(bottom, 0.0) > 0.0 ? top - std::max(bottom, 0.0) : 0.0;
+        in_gap[cell] += std::max(0.0, std::min(top, w.gap) - std::max(bottom, 0.0));
+        m.height_map[cell] = std::max(m.height_map[cell], static_cast<float>(top));
+      }
+    }
+  }
+  const double n = static_cast<double>(m.height_map.size());
+  double gap_sum = 0.0, solid_sum = 0.0, height_sum = 0.0, height2 = 0.0;
+  int covered = 0;
+  for (std::size_t k = 0; k < m.height_map.size(); ++k) {
+    gap_sum += in_gap[k];
+    solid_sum += solid[k];
+    const double h = std::max(0.0f, m.height_map[k]);
+    height_sum += h;
+    height2 += h * h;
+    covered += solid[k] > 0.0 ? 1 : 0;
+  }
+  m.packing_fraction = gap_sum / (n * w.gap);
+  m.solid_thickness = solid_sum / n;
+  m.height_mean = m.effective_depth = height_sum / n;
+  m.height_std = std::sqrt(std::max(0.0, height2 / n - m.height_mean * m.height_mean));
+  m.coverage = covered / n;
+
+  // packing per cell of about `cell` size, whole columns each
+  const int cx = std::max(1, static_cast<int>(std::round((w.x_max - w.x_min) / w.cell)));
+  const int cz = std::max(1, static_cast<int>(std::round((w.z_max - w.z_min) / w.cell)));
+  std::vector<double> cell_gap(static_cast<std::size_t>(cx) * cz, 0.0);
+  std::vector<int> cell_columns(cell_gap.size(), 0);
+  for (int row = 0; row < m.columns_z; ++row)
+    for (int i = 0; i < m.columns_x; ++i) {
+      const int a = std::min(cx - 1, i * cx / m.columns_x);
+      const int b = std::min(cz - 1, row * cz / m.columns_z);
+      cell_gap[static_cast<std::size_t>(b) * cx + a] +=
+          in_gap[static_cast<std::size_t>(row) * m.columns_x + i];
+      ++cell_columns[static_cast<std::size_t>(b) * cx + a];
+    }
+  m.cells = cx * cz;
+  m.cell_min = std::numeric_limits<double>::infinity();
+  m.cell_max = -std::numeric_limits<double>::infinity();
+  double sum = 0.0, sum2 = 0.0;
+  for (std::size_t k = 0; k < cell_gap.size(); ++k) {
+    const double phi = cell_gap[k] / (cell_columns[k] * w.gap);
+    sum += phi;
+    sum2 += phi * phi;
+    m.cell_min = std::min(m.cell_min, phi);
+    m.cell_max = std::max(m.cell_max, phi);
+  }
+  m.cell_mean = sum / m.cells;
+  m.cell_std = std::sqrt(std::max(0.0, sum2 / m.cells - m.cell_mean * m.cell_mean));
+  return m;
+}
+
+}  // namespace sweep

@@ -1,0 +1,258 @@
+// Issue #8: periodic boundaries, rolling resistance, the powder-bed generator, the layer
+// metrics and a reduced spreading pass.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "apps/sweep/layer_output.hpp"
+#include "apps/sweep/scene_file.hpp"
+#include "framework/error.hpp"
+#include "framework/kinematics.hpp"
+#include "integrators/time_stepper.hpp"
+#include "models/powder_bed.hpp"
+
+namespace sweep {
+namespace {
+
+SceneFile sceneText(const std::string& text) {
+  return loadSceneText(text, "test.yaml");
+}
+
+// Two spheres at the two ends of a periodic cell meet through the boundary: one contact, the
+// gap of the nearest images, and a normal velocity that is the true approach speed.
+TEST(Periodic, SpheresMeetThroughTheBoundary) {
+  const SceneFile file = sceneText(R"(
+dimension: 3
+gravity: [0, 0, 0]
+materials: {grain: {density: 1000}}
+bodies:
+  - {name: a, shape: sphere, radius: 0.1, position: [0.15, 0, 0], velocity: [-1, 0, 0], material: grain}
+  - {name: b, shape: sphere, radius: 0.1, position: [1.84, 0, 0], velocity: [1, 0, 0], material: grain}
+detection: {periodic: {axis: x, low: 0, high: 2}}
+)");
+  const Scene scene = buildSceneFile(file);
+  Data data(scene.model);
+  forwardKinematics(scene.model, data, scene.q0, scene.v0);
+  ContactData cdata(scene.model, scene.cmodel);
+  detectContacts(scene.model, data, scene.cmodel, cdata, 0.0, 0.2);
+  ASSERT_EQ(cdata.contacts.size(), 1u);
+  const Contact& c = cdata.contacts[0];
+  // centres 0.15 and 1.84 - 2 = -0.16: distance 0.31, radii 0.1 + 0.1
+  EXPECT_NEAR(c.gap, 0.31 - 0.2, 1e-14);
+  EXPECT_EQ(c.key.feature, 2);  // b's image at -period
+  assembleContactJacobian(scene.model, data, scene.cmodel, cdata, 0.0);
+  const Vector3 u = cdata.jacobian.relativeVelocity(0, scene.v0);
+  EXPECT_NEAR(u.x(), -2.0, 1e-14);  // closing at 2 m/s
+  // the lever arm of b's point is taken on b itself: the angular entries of the tangent rows
+  // are at most a radius (with the image's position they would be a period)
+  for (int k = cdata.jacobian.begin[0]; k < cdata.jacobian.begin[1]; ++k) {
+    const int dof = cdata.jacobian.dof[k];
+    const bool angular = dof % 6 >= 3;
+    if (angular) {
+      EXPECT_LE(std::abs(cdata.jacobian.tangent1[k]), 0.1 + 1e-12) << dof;
+    }
+  }
+}
+
+// A head-on collision through the boundary: elastic spheres exchange velocities as they
+// would anywhere else, and both stay in the cell.
+TEST(Periodic, CollisionThroughTheBoundaryAndWrappedPositions) {
+  for (const char* scheme : {"moreau-jean", "catching-up"}) {
+    SceneFile file = sceneText(R"(
+dimension: 3
+gravity: [0, 0, 0]
+materials: {grain: {density: 1000}}
+contact: {restitution: 1}
+bodies:
+  - {name: a, shape: sphere, radius: 0.1, position: [0.15, 0, 0], velocity: [-1, 0, 0], material: grain}
+  - {name: b, shape: sphere, radius: 0.1, position: [1.84, 0, 0], velocity: [0.5, 0, 0], material: grain}
+detection: {periodic: {axis: x, low: 0, high: 2}}
+time: {step: 1e-3}
+)");
+    file.run.scheme.scheme = schemeFromName(scheme);
+    const Scene scene = buildSceneFile(file);
+    TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    for (int k = 0; k < 1000; ++k) {
+      stepper.step();
+      for (int b = 0; b < 2; ++b) {
+        const double x = stepper.q()[7 * b];
+        ASSERT_GE(x, 0.0) << scheme << " step " << k;
+        ASSERT_LT(x, 2.0) << scheme << " step " << k;
+      }
+    }
+    // velocities exchanged (equal masses, e = 1), momentum kept
+    EXPECT_NEAR(stepper.v()[0], 0.5, 1e-9) << scheme;
+    EXPECT_NEAR(stepper.v()[6], -1.0, 1e-9) << scheme;
+  }
+}
+
+TEST(Periodic, RefusesWhatItCannotImage) {
+  auto error = [](const std::string& text) {
+    try {
+      buildSceneFile(sceneText(text));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string head = "dimension: 3\nmaterials: {m: {density: 1000}}\n";
+  EXPECT_NE(error(head + R"(bodies:
+  - {name: box, shape: box, size: [0.1, 0.1, 0.1], material: m}
+  - {name: s, shape: sphere, radius: 0.1, position: [0.5, 0, 0], material: m}
+detection: {periodic: {axis: x, low: 0, high: 2}}
+)")
+                .find("body 'box'"),
+            std::string::npos);
+  EXPECT_NE(error(head + R"(bodies:
+  - {name: s, shape: sphere, radius: 0.1, material: m}
+detection: {periodic: {axis: x, low: 0, high: 0.5}}
+)")
+                .find("three largest grain diameters"),
+            std::string::npos);
+  EXPECT_NE(error(head + R"(bodies:
+  - {name: s, shape: sphere, radius: 0.1, material: m}
+detection: {path: fcl, periodic: {axis: x, low: 0, high: 2}}
+)")
+                .find("needs the analytic detection path"),
+            std::string::npos);
+  EXPECT_NE(error(head + R"(bodies:
+  - {name: s, shape: sphere, radius: 0.1, material: m}
+detection: {periodic: {axis: w, low: 0, high: 2}}
+)")
+                .find("must be x, y or z"),
+            std::string::npos);
+}
+
+// A ball rolling on a plane under a rolling-resistance torque mu_r R* N (R* = r against a
+// plane): it decelerates at mu_r g / (1 + I / (m r^2)) while rolling without slip, then
+// stops and stays stopped. Constant forces: exact to the solver tolerance at any h.
+TEST(RollingResistance, BallAndDiskDecelerateThenStop) {
+  struct Case {
+    int dimension;
+    double shape_factor;  // I / (m r^2)
+  };
+  for (const Case& k : {Case{3, 0.4}, Case{2, 0.5}})
+    for (const char* scheme : {"moreau-jean", "catching-up"}) {
+      const std::string text = k.dimension == 3 ? R"(
+dimension: 3
+gravity: [0, -9.81, 0]
+materials: {steel: {density: 7800}}
+contact: {friction: 0.5, rolling_resistance: 0.1}
+bodies:
+  - {name: floor, shape: plane, fixed: true, normal: [0, 1, 0]}
+  - {name: ball, shape: sphere, radius: 0.01, position: [0, 0.01, 0], velocity: [0.1, 0, 0], angular_velocity: [0, 0, -10], material: steel}
+time: {step: 1e-3}
+)"
+                                                : R"(
+dimension: 2
+gravity: [0, -9.81]
+materials: {steel: {density: 7800}}
+contact: {friction: 0.5, rolling_resistance: 0.1}
+bodies:
+  - {name: floor, shape: half_plane, fixed: true, normal: [0, 1]}
+  - {name: ball, shape: disk, radius: 0.01, position: [0, 0.01], velocity: [0.1, 0], angular_velocity: -10, material: steel}
+time: {step: 1e-3}
+)";
+      SceneFile file = sceneText(text);
+      file.run.scheme.scheme = schemeFromName(scheme);
+      file.run.scheme.normal_law = NormalLaw::Pos;
+      const Scene scene = buildSceneFile(file);
+      TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+      stepper.reset(0.0, scene.q0, scene.v0);
+      const double a = 0.1 * 9.81 / (1.0 + k.shape_factor);
+      for (int step = 0; step < 50; ++step) stepper.step();
+      const int spin = k.dimension == 3 ? 5 : 2;  // the angular velocity about z
+      EXPECT_NEAR(stepper.v()[0], 0.1 - a * 0.05, 1e-6) << k.dimension << "D " << scheme;
+      EXPECT_NEAR(stepper.v()[spin], -stepper.v()[0] / 0.01, 1e-4) << k.dimension << "D " << scheme;
+      for (int step = 0; step < 250; ++step) stepper.step();
+      EXPECT_NEAR(stepper.v()[0], 0.0, 1e-9) << k.dimension << "D " << scheme;
+      EXPECT_NEAR(stepper.v()[spin], 0.0, 1e-7) << k.dimension << "D " << scheme;
+    }
+}
+
+TEST(LayerMetrics, OneSphereAndOneAcrossThePeriodicEdge) {
+  LayerWindow w;
+  w.x_min = 0.0;
+  w.x_max = 1e-3;
+  w.z_min = 0.0;
+  w.z_max = 0.5e-3;
+  w.gap = 100e-6;
+  w.cell = 0.5e-3;
+  w.resolution = 0.5e-6;
+  const double r = 20e-6;
+  const double area = 1e-3 * 0.5e-3;
+  // a sphere on the plate in the middle, and one cut by the periodic edge z = 0
+  const std::vector<Vector3> centers = {Vector3(0.5e-3, r, 0.25e-3), Vector3(0.2e-3, r, 0.0)};
+  const std::vector<double> radii = {r, r};
+  const LayerMetrics m = layerMetrics(centers, radii, w);
+  const double volume = 4.0 / 3.0 * M_PI * r * r * r;
+  EXPECT_NEAR(m.packing_fraction, 2.0 * volume / (area * w.gap), 2e-3 * m.packing_fraction);
+  EXPECT_NEAR(m.coverage, 2.0 * M_PI * r * r / area, 2e-3 * m.coverage);
+  EXPECT_NEAR(m.solid_thickness, 2.0 * volume / area, 2e-3 * m.solid_thickness);
+  EXPECT_NEAR(m.highest_top, 2.0 * r, 1e-15);
+  EXPECT_EQ(m.cells, 2);
+  EXPECT_EQ(m.particles, 2);
+  // a sphere above the gap counts in the thickness but not in the packing
+  const LayerMetrics high = layerMetrics({Vector3(0.5e-3, w.gap + 2.0 * r, 0.25e-3)}, {r}, w);
+  EXPECT_EQ(high.packing_fraction, 0.0);
+  EXPECT_NEAR(high.solid_thickness, volume / area, 2e-3 * high.solid_thickness);
+}
+
+TEST(PowderBed, SizesFollowTheMassFractions) {
+  PowderBedParameters p;
+  p.count = 20000;
+  const std::vector<double> d = powderDiameters(p);
+  std::vector<double> mass(3, 0.0);
+  for (double x : d)
+    for (int i = 0; i < 3; ++i)
+      if (x == p.diameters[i]) mass[i] += x * x * x;
+  const double total = std::accumulate(mass.begin(), mass.end(), 0.0);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(mass[i] / total, p.mass_fractions[i], 0.02) << i;
+  p.sizes = PowderBedParameters::Sizes::LogNormal;
+  for (double x : powderDiameters(p)) {
+    ASSERT_GE(x, p.d_min);
+    ASSERT_LE(x, p.d_max);
+  }
+  p.travel = 10e-3;
+  EXPECT_THROW(powderBed(p), InputError);
+}
+
+// A reduced pass (300 spheres, 1.2 mm of travel, Jean-Moreau): nothing is lost, nothing stays
+// above the gap behind the blade, and the layer is sparse.
+TEST(PowderBed, ReducedPassKeepsEveryGrainAndLeavesNothingAboveTheGap) {
+  SceneFile file = sceneText(R"(
+dimension: 3
+gravity: [0, -9.81, 0]
+generators:
+  - {type: powder_bed, count: 300, length: 2.4e-3, travel: 1.2e-3, heap_length: 0.5e-3, settle_time: 0.015}
+scheme: {name: moreau-jean, normal_law: pos}
+time: {step: 1e-5, end: 0.027}
+output: {layer: {x_min: 0.4e-3, x_max: 1.2e-3}}
+)");
+  const Scene scene = buildSceneFile(file);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  const long steps = std::lround(file.run.t_end / file.run.scheme.h);
+  for (long k = 0; k < steps; ++k) ASSERT_NE(stepper.step().status, SolverStatus::Failed);
+  const LayerMetrics layer = measureLayer(scene, stepper.q(), *file.run.output.layer);
+  const int n = scene.model.nv / 6;
+  ASSERT_EQ(n, 300);
+  for (int b = 0; b < n; ++b) {
+    const Vector3 x = stepper.q().segment<3>(7 * b);
+    EXPECT_GT(x.x(), 0.0) << b;
+    EXPECT_LT(x.x(), 2.4e-3) << b;
+    EXPECT_GT(x.y(), 0.0) << b;  // above the plate (radius 15-25 um, penetration << 1 um)
+    EXPECT_GE(x.z(), 0.0) << b;
+    EXPECT_LT(x.z(), 0.4e-3) << b;
+  }
+  // the blade's edge is 100 um up: the tallest grain behind it reaches no higher (1 um for
+  // the contact tolerance and the POS law's residual overlap)
+  EXPECT_LT(layer.highest_top, 100e-6 + 1e-6);
+  EXPECT_GT(layer.packing_fraction, 0.05);
+  EXPECT_LT(layer.packing_fraction, 0.5);
+}
+
+}  // namespace
+}  // namespace sweep
