@@ -75,7 +75,29 @@ void VtkSeries::write(const TimeStepper& stepper) {
       return static_cast<int>(points.size()) - 1;
     };
     Cell cell;
-    if (shape.type == ShapeType::Segment) {
+    if (shape.type == ShapeType::Box) {
+      // six quads on eight shared corners: a blade or a gate as it is, not as a ball
+      int corner[8];
+      for (int k = 0; k < 8; ++k)
+        corner[k] = add(pose.apply(shape.half_extents.cwiseProduct(
+                            Vector3(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0))),
+                        0.0);
+      static const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                      {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+      for (const auto& face : faces) {
+        Cell quad;
+        quad.kind = Cell::Kind::Polygon;
+        for (int k : face) quad.points.push_back(corner[k]);
+        cells.push_back(quad);
+      }
+      continue;
+    }
+    if (shape.type == ShapeType::Capsule || shape.type == ShapeType::Cylinder) {
+      // the axis as a line with the radius: a roller drawn by ParaView's tube filter
+      cell.kind = Cell::Kind::Line;
+      cell.points = {add(pose.apply(Vector3(0.0, 0.0, -0.5 * shape.length)), shape.radius),
+                     add(pose.apply(Vector3(0.0, 0.0, 0.5 * shape.length)), shape.radius)};
+    } else if (shape.type == ShapeType::Segment) {
       cell.kind = Cell::Kind::Line;
       cell.points = {add(pose.apply(shape.segment_start), shape.radius),
                      add(pose.apply(shape.segment_end), shape.radius)};

@@ -1,6 +1,7 @@
 #pragma once
 // VTK snapshots for ParaView: one PolyData file (.vtp) per snapshot, the bodies' shapes as
-// vertices (disks, spheres and other bodies by their centre), lines (segments) and polygons,
+// vertices (disks, spheres and other bodies by their centre), lines (segments, and the axes of
+// capsules and cylinders), polygons (2D polygons, the six faces of boxes),
 // with body id, kind, radius, velocity and contact force as point data; and a .pvd collection
 // that lists the snapshots with their times, rewritten after each one so it is always valid.
 #include <string>

@@ -227,7 +227,7 @@ dimension: 3
 gravity: [0, -9.81, 0]
 generators:
   - {type: powder_bed, count: 300, length: 2.4e-3, travel: 1.2e-3, heap_length: 0.5e-3, settle_time: 0.015}
-scheme: {name: moreau-jean, normal_law: pos}
+scheme: {name: moreau-jean, normal_law: vel}
 time: {step: 1e-5, end: 0.027}
 output: {layer: {x_min: 0.4e-3, x_max: 1.2e-3}}
 )");
@@ -235,7 +235,15 @@ output: {layer: {x_min: 0.4e-3, x_max: 1.2e-3}}
   TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
   stepper.reset(0.0, scene.q0, scene.v0);
   const long steps = std::lround(file.run.t_end / file.run.scheme.h);
-  for (long k = 0; k < steps; ++k) ASSERT_NE(stepper.step().status, SolverStatus::Failed);
+  // no grain ever moves faster than a fall from the blade's top (0.18 m/s) plus a rebound:
+  // the POS law with e = 0.5 launched grains at several m/s here (docs/powder_bed.md)
+  double fastest = 0.0;
+  for (long k = 0; k < steps; ++k) {
+    ASSERT_NE(stepper.step().status, SolverStatus::Failed);
+    for (int b = 0; b < scene.model.nv / 6; ++b)
+      fastest = std::max(fastest, stepper.v().segment<3>(6 * b).norm());
+  }
+  EXPECT_LT(fastest, 0.5);
   const LayerMetrics layer = measureLayer(scene, stepper.q(), *file.run.output.layer);
   const int n = scene.model.nv / 6;
   ASSERT_EQ(n, 300);
@@ -248,7 +256,7 @@ output: {layer: {x_min: 0.4e-3, x_max: 1.2e-3}}
     EXPECT_LT(x.z(), 0.4e-3) << b;
   }
   // the blade's edge is 100 um up: the tallest grain behind it reaches no higher (1 um for
-  // the contact tolerance and the POS law's residual overlap)
+  // the overlap VEL leaves, about h times an impact speed)
   EXPECT_LT(layer.highest_top, 100e-6 + 1e-6);
   EXPECT_GT(layer.packing_fraction, 0.05);
   EXPECT_LT(layer.packing_fraction, 0.5);

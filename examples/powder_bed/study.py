@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Layer studies of the powder-bed spreader (issue #8, docs/powder_bed.md): the reduced scene
+examples/powder_bed/powder_bed_reduced.yaml run by `sweep run` for a list of variants
+(gap 150 vs 100 um, blade speed 0.05 vs 0.1 m/s, rough vs flat plate, time steps, schemes)
+and several seeds each. Writes OUT/study.csv (one row per run: variant, seed, layer metrics,
+CPU time), OUT/study.md (mean and standard deviation per variant) and OUT/study.png.
+
+  /usr/bin/python3 examples/powder_bed/study.py --out results/powder_study --seeds 1,2,3 \
+      --variants base,gap150,slow,rough --jobs 2
+
+Everything after `--` goes to every `sweep run`.
+"""
+import argparse
+import csv
+import json
+import os
+import statistics
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+# name: (label, --set overrides)
+VARIANTS = {
+    "base": ("blade, flat plate, gap 100 um, 0.1 m/s", []),
+    "gap150": ("gap 150 um", ["generators[0].gap=150e-6", "output.layer.gap=150e-6"]),
+    "slow": ("blade at 0.05 m/s", ["generators[0].speed=0.05", "time.end=0.052"]),
+    "rough": ("rough plate", ["generators[0].plate=rough"]),
+    "roller": ("counter-rotating roller", ["generators[0].spreader=roller"]),
+    "h5e-6": ("h = 5e-6 s", ["time.step=5e-6"]),
+    "h2e-5": ("h = 2e-5 s", ["time.step=2e-5"]),
+    "catching-up": ("staggered scheme", ["scheme.name=catching-up"]),
+    "pos": ("Jean-Moreau with the POS law", ["scheme.normal_law=pos"]),
+}
+METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]
+
+
+def run(args, variant, seed):
+    run_dir = os.path.join(args.out, f"{variant}_s{seed}")
+    if not (args.reuse and os.path.exists(os.path.join(run_dir, "layer.json"))):
+        command = [args.sweep, "run", args.scene, "--out", run_dir, "--quiet",
+                   "--set", f"generators[0].seed={seed}"]
+        for override in VARIANTS[variant][1]:
+            command += ["--set", override]
+        command += args.extra
+        print(" ".join(command), flush=True)
+        subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(run_dir, "layer.json")) as f:
+        layer = json.load(f)
+    with open(os.path.join(run_dir, "summary.json")) as f:
+        summary = json.load(f)
+    row = {"variant": variant, "seed": seed, "cpu_seconds": summary["cpu_seconds"],
+           "cap_hit_steps": summary["iterations"]["cap_hit_steps"],
+           "highest_top": layer["height"]["highest_top"],
+           "height_std": layer["height"]["std"], "cell_std": layer["cell_packing"]["std"]}
+    for m in METRICS:
+        row[m] = layer[m]
+    return row
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default="results/powder_study")
+    parser.add_argument("--sweep", default=os.path.join(ROOT, "build", "sweep"))
+    parser.add_argument("--scene", default=os.path.join(ROOT, "examples", "powder_bed",
+                                                        "powder_bed_reduced.yaml"))
+    parser.add_argument("--variants", default="base,gap150,slow,rough")
+    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--no-plot", action="store_true")
+    parser.add_argument("--reuse", action="store_true", help="keep runs already in OUT")
+    parser.add_argument("extra", nargs="*", help="options passed to every sweep run")
+    args = parser.parse_args()
+    variants = args.variants.split(",")
+    for v in variants:
+        if v not in VARIANTS:
+            sys.exit(f"study.py: unknown variant '{v}' (one of {', '.join(VARIANTS)})")
+    seeds = [int(s) for s in args.seeds.split(",")]
+    os.makedirs(args.out, exist_ok=True)
+    jobs = [(v, s) for v in variants for s in seeds]
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        rows = list(pool.map(lambda job: run(args, *job), jobs))
+
+    fields = list(rows[0].keys())
+    with open(os.path.join(args.out, "study.csv.partial"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(os.path.join(args.out, "study.csv.partial"), os.path.join(args.out, "study.csv"))
+
+    lines = ["| variant | runs | packing fraction | depth / gap | coverage | CPU s |",
+             "|---|---|---|---|---|---|"]
+    summary = {}
+    for v in variants:
+        mine = [r for r in rows if r["variant"] == v]
+        def stat(key):
+            values = [r[key] for r in mine]
+            sd = statistics.stdev(values) if len(values) > 1 else 0.0
+            return statistics.mean(values), sd
+        summary[v] = {k: stat(k) for k in METRICS + ["cpu_seconds"]}
+        p, d, c, t = (summary[v][k] for k in ["packing_fraction", "effective_depth_over_gap",
+                                              "coverage", "cpu_seconds"])
+        lines.append(f"| {VARIANTS[v][0]} | {len(mine)} | {p[0]:.3f} +- {p[1]:.3f} | "
+                     f"{d[0]:.2f} +- {d[1]:.2f} | {c[0]:.2f} +- {c[1]:.2f} | {t[0]:.1f} |")
+    with open(os.path.join(args.out, "study.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+    if args.no_plot:
+        return
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for i, v in enumerate(variants):
+        values = [r["packing_fraction"] for r in rows if r["variant"] == v]
+        ax.scatter([i] * len(values), values, color="tab:blue", s=18)
+        ax.errorbar([i + 0.15], [summary[v]["packing_fraction"][0]],
+                    yerr=[summary[v]["packing_fraction"][1]], fmt="o", color="black")
+    ax.set_xticks(range(len(variants)))
+    ax.set_xticklabels([VARIANTS[v][0] for v in variants], rotation=20, ha="right", fontsize=8)
+    ax.set_ylabel("packing fraction of the layer")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "study.png"), dpi=130)
+
+
+if __name__ == "__main__":
+    main()
