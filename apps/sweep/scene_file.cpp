@@ -426,16 +426,23 @@ class SceneParser {
     p.shutter_time = g.number("shutter_time", p.shutter_time);
     p.lattice_spacing = g.number("lattice_spacing", p.lattice_spacing);
     p.seed = static_cast<std::uint32_t>(g.integer("seed", p.seed));
-    SceneSpec funnel;
+    addGenerated(g, [&] { return hallFunnel(p); });
+  }
+
+  // Runs a scene builder for generator g and merges its materials, laws and bodies. The
+  // builder names the parameter in its errors; this adds where it came from.
+  template <class Build>
+  SceneSpec addGenerated(const YamlField& g, Build&& build) {
+    SceneSpec made;
     try {
-      funnel = hallFunnel(p);
+      made = build();
     } catch (const InputError& e) {
-      // the builder names the parameter; add where it came from
       throw InputError(path_ + ": " + g.path() + ": " + e.what());
     }
-    for (const MaterialSpec& m : funnel.materials) addMaterial(m, g);
-    out_.spec.laws.insert(out_.spec.laws.end(), funnel.laws.begin(), funnel.laws.end());
-    out_.spec.bodies.insert(out_.spec.bodies.end(), funnel.bodies.begin(), funnel.bodies.end());
+    for (const MaterialSpec& m : made.materials) addMaterial(m, g);
+    out_.spec.laws.insert(out_.spec.laws.end(), made.laws.begin(), made.laws.end());
+    out_.spec.bodies.insert(out_.spec.bodies.end(), made.bodies.begin(), made.bodies.end());
+    return made;
   }
 
   void powderBedGenerator(const YamlField& g) {
@@ -516,15 +523,7 @@ class SceneParser {
     const long seed = g.integer("seed", 1);
     if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
     p.seed = static_cast<std::uint32_t>(seed);
-    SceneSpec bed;
-    try {
-      bed = powderBed(p);
-    } catch (const InputError& e) {
-      throw InputError(path_ + ": " + g.path() + ": " + e.what());
-    }
-    for (const MaterialSpec& m : bed.materials) addMaterial(m, g);
-    out_.spec.laws.insert(out_.spec.laws.end(), bed.laws.begin(), bed.laws.end());
-    out_.spec.bodies.insert(out_.spec.bodies.end(), bed.bodies.begin(), bed.bodies.end());
+    const SceneSpec bed = addGenerated(g, [&] { return powderBed(p); });
     out_.spec.detection.path = bed.detection.path;
     out_.spec.detection.periodic = bed.detection.periodic;
     powder_layer_ = defaultLayerWindow(p);
