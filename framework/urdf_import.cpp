@@ -4,6 +4,7 @@
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -31,13 +32,25 @@ class CapturedLog : public console_bridge::OutputHandler {
 // console_bridge restores by swapping its current and previous handlers, so after a capture
 // it still holds a pointer to the capturing handler. That handler therefore lives for the
 // whole program (one per thread), never on a stack frame that is gone.
+//
+// urdfdom passes some messages that quote the file (a bad xyz, a bad box size) to
+// console_bridge as the printf format itself, so a '%s' or '%n' in a URDF crashes or writes
+// memory. console_bridge formats only when the message's level is at or above its log level:
+// with `format_messages` false the level is raised to NONE for the parse, nothing is
+// formatted, and nothing is captured.
 class LogCapture {
  public:
-  LogCapture() {
+  explicit LogCapture(bool format_messages) : level_(console_bridge::getLogLevel()) {
     log().messages.clear();
     console_bridge::useOutputHandler(&log());
+    if (!format_messages) console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   }
-  ~LogCapture() { console_bridge::restorePreviousOutputHandler(); }
+  ~LogCapture() {
+    console_bridge::setLogLevel(level_);
+    console_bridge::restorePreviousOutputHandler();
+  }
+  LogCapture(const LogCapture&) = delete;
+  LogCapture& operator=(const LogCapture&) = delete;
   const std::string& messages() const { return log().messages; }
 
  private:
@@ -45,6 +58,7 @@ class LogCapture {
     thread_local CapturedLog instance;
     return instance;
   }
+  console_bridge::LogLevel level_;
 };
 
 Pose toPose(const urdf::Pose& p) {
@@ -277,16 +291,23 @@ void precheckXml(const std::string& xml, const std::string& source) {
 int importParsed(ModelBuilder& builder, const std::string& xml, const std::string& source,
                  const std::string& base_dir, const UrdfOptions& options) {
   precheckXml(xml, source);
+  const std::size_t percent = xml.find('%');
   urdf::ModelInterfaceSharedPtr urdf;
   std::string reasons;
   {
-    LogCapture capture;
+    LogCapture capture(percent == std::string::npos);
     try {
       urdf = urdf::parseURDF(xml);
     } catch (const std::exception& e) {
       reasons = e.what();
     }
     if (reasons.empty()) reasons = capture.messages();
+  }
+  if (!urdf && reasons.empty() && percent != std::string::npos) {
+    const auto line = 1 + std::count(xml.begin(), xml.begin() + percent, '\n');
+    reasons = "urdfdom's reasons are withheld because the file holds a '%' (first on line " +
+              std::to_string(line) +
+              "), which urdfdom would hand to printf as a format; look for a '%' in a number";
   }
   if (!urdf)
     throw InputError(source + ": not a valid URDF" + (reasons.empty() ? "" : ": " + reasons));

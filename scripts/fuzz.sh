@@ -31,7 +31,13 @@ for target in "${targets[@]}"; do
   (cd build-fuzz && "./tests/fuzz/${target}_fuzzer" "corpus/$target" \
      "../tests/fuzz/regressions/$target" -max_total_time="$seconds" -max_len=8192 \
      -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 > "$target.log" 2>&1) || {
-    grep -m1 -A40 "ERROR\|runtime error\|Sanitizer" "build-fuzz/$target.log" || tail -60 "build-fuzz/$target.log"
+    # the report starts at a sanitizer's or libFuzzer's ==PID==ERROR line, a UBSan
+    # "runtime error:" or a DEADLYSIGNAL line; a looser pattern once matched a harmless
+    # ASan WARNING near the top and hid the real report, so show the tail in any case
+    grep -m1 -A60 -E "^==[0-9]+== ?ERROR|runtime error:|DEADLYSIGNAL" "build-fuzz/$target.log" || true
+    echo "fuzz: $target failed; last lines of build-fuzz/$target.log:"
+    tail -40 "build-fuzz/$target.log"
+    ls build-fuzz/crash-* build-fuzz/oom-* build-fuzz/timeout-* 2>/dev/null || true
     exit 1
   }
   tail -8 "build-fuzz/$target.log"

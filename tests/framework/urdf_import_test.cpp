@@ -143,10 +143,27 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"two_parents.urdf", "link 'c' has two parents"},
         BadUrdf{"joint_loop.urdf", "closes a loop: link 'a' is its own ancestor"},
         BadUrdf{"self_parent.urdf", "joint 'spin' closes a loop: link 'a' is its own ancestor"},
-        BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"}),
+        BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"},
+        BadUrdf{"format_in_number.urdf", "holds a '%' (first on line 8)"}),
     [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
       return param_info.param.file.substr(0, param_info.param.file.find('.'));
     });
+
+// A '%' is legal in names; only the parse's messages are left unformatted.
+TEST(UrdfImport, PercentInANameIsKept) {
+  ModelBuilder b;
+  addUrdfString(b,
+                "<robot name='r%s'><link name='a%n'><inertial><mass value='1'/>"
+                "<inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/></inertial></link>"
+                "<link name='b'><inertial><mass value='1'/><inertia ixx='1' ixy='0' ixz='0' "
+                "iyy='1' iyz='0' izz='1'/></inertial></link>"
+                "<joint name='j%s' type='continuous'><parent link='a%n'/>"
+                "<child link='b'/><axis xyz='0 0 1'/></joint></robot>",
+                "percent.urdf");
+  const Model m = b.build();
+  EXPECT_EQ(m.nv, 1);
+  EXPECT_GE(m.jointIndex("j%s"), 0);
+}
 
 TEST(UrdfImport, StringSourceIsNamedInErrors) {
   ModelBuilder b;
