@@ -5,6 +5,7 @@ import csv
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -12,6 +13,8 @@ import tempfile
 import time
 import unittest
 import xml.etree.ElementTree as ET
+
+from scratch import scratch_dir
 
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
 DATA = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "tests/data"
@@ -39,6 +42,7 @@ class Run(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.out = tempfile.mkdtemp(prefix="sweep_run_")
+        cls.addClassCleanup(shutil.rmtree, cls.out, ignore_errors=True)
         cls.result = sweep("run", "small_box.yaml", "--out", cls.out, "--quiet")
 
     def test_exit_code_and_summary_screen(self):
@@ -103,7 +107,7 @@ class FullDisk(unittest.TestCase):
     pointed at /dev/full (every write fails with ENOSPC) before the run."""
 
     def run_with_full(self, name, steps):
-        out = tempfile.mkdtemp(prefix="sweep_full_")
+        out = scratch_dir(self, "sweep_full_")
         os.symlink("/dev/full", os.path.join(out, name + ".partial"))
         r = sweep("run", "small_box.yaml", "--out", out, "--quiet",
                   "--set", f"time.end={steps * 1e-4}")
@@ -148,7 +152,7 @@ class Inputs(unittest.TestCase):
         self.assertIn("time.stepp: unknown key", r.stderr)
 
     def test_set_and_options_override_the_scene(self):
-        out = tempfile.mkdtemp(prefix="sweep_set_")
+        out = scratch_dir(self, "sweep_set_")
         r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set", "time.end=0.005",
                   "--scheme", "moreau-jean", "--dt", "2.5e-4")
         self.assertEqual(r.returncode, 0, r.stderr)
@@ -162,7 +166,7 @@ class Inputs(unittest.TestCase):
         same in two runs."""
         digests, states = [], []
         for _ in range(2):
-            out = tempfile.mkdtemp(prefix="sweep_repeat_")
+            out = scratch_dir(self, "sweep_repeat_")
             r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set",
                       "output.timings=false", "--set", "time.end=0.01")
             self.assertEqual(r.returncode, 0, r.stderr)
@@ -189,7 +193,7 @@ class Inputs(unittest.TestCase):
 class Interrupt(unittest.TestCase):
     def test_ctrl_c_and_sigterm_leave_valid_flagged_results(self):
         for sig in (signal.SIGINT, signal.SIGTERM):
-            out = tempfile.mkdtemp(prefix="sweep_int_")
+            out = scratch_dir(self, "sweep_int_")
             p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
                                   "--set", "time.end=1000"], cwd=SCENES,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -208,7 +212,7 @@ class Interrupt(unittest.TestCase):
 
 class Bench(unittest.TestCase):
     def test_bench_writes_table_and_figures(self):
-        out = tempfile.mkdtemp(prefix="sweep_bench_")
+        out = scratch_dir(self, "sweep_bench_")
         r = sweep("bench", "small_box.yaml", "--dt", "2e-4,1e-4", "--t-end", "0.004",
                   "--out", out, "--quiet")
         self.assertEqual(r.returncode, 0, r.stdout + r.stderr)

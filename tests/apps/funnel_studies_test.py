@@ -8,8 +8,9 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
 import unittest
+
+from scratch import scratch_dir
 
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "build/sweep"
 SOURCE = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "."
@@ -23,7 +24,7 @@ def script(name, *args):
 
 class Scale(unittest.TestCase):
     def test_table_plot_and_slope(self):
-        out = tempfile.mkdtemp(prefix="sweep_scale_")
+        out = scratch_dir(self, "sweep_scale_")
         r = script("scale.py", "--out", out, "--counts", "50,200", "--steps", "300",
                    "--schemes", "catching-up,moreau-jean")
         self.assertEqual(r.returncode, 0, r.stderr)
@@ -48,7 +49,7 @@ class Scale(unittest.TestCase):
 
 class Discharge(unittest.TestCase):
     def test_rates_grow_with_the_orifice(self):
-        out = tempfile.mkdtemp(prefix="sweep_discharge_")
+        out = scratch_dir(self, "sweep_discharge_")
         r = script("discharge.py", "--out", out, "--ratios", "8,12,16", "--count", "300",
                    "--t-end", "0.1", "--shutter", "0.02", "--interval", "0.001", "--",
                    "--set",
