@@ -77,6 +77,10 @@ struct LayerMetrics {
   int cells = 0;
   int particles = 0;         // spheres touching the window's columns
   double highest_top = 0.0;  // highest sphere top over the window, above the plate
+  // Spheres that do not move (a rough plate) take part of the gap's volume themselves; the
+  // grains' packing fraction over what they leave free compares rough and flat plates.
+  double fixed_fraction = 0.0;  // fixed spheres' volume in [plate, plate + gap] / window
+  double free_volume_packing_fraction = 0.0;  // packing_fraction / (1 - fixed_fraction)
   // surface height above the plate per column, row-major (z rows, x columns)
   int columns_x = 0, columns_z = 0;
   std::vector<float> height_map;

@@ -16,14 +16,30 @@ namespace sweep {
 LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window) {
   Data data(scene.model);
   forwardKinematics(scene.model, data, q);
-  std::vector<Vector3> centers;
-  std::vector<double> radii;
+  std::vector<Vector3> centers, fixed_centers;
+  std::vector<double> radii, fixed_radii;
   for (const Geometry& g : scene.cmodel.geometries) {
-    if (g.body.kind != BodyRef::Kind::Dynamic || g.shape.type != ShapeType::Sphere) continue;
-    centers.push_back((data.world_pose[g.body.index] * g.placement).translation);
-    radii.push_back(g.shape.radius);
+    if (g.shape.type != ShapeType::Sphere) continue;
+    if (g.body.kind == BodyRef::Kind::Dynamic) {
+      centers.push_back((data.world_pose[g.body.index] * g.placement).translation);
+      radii.push_back(g.shape.radius);
+    } else if (g.body.kind == BodyRef::Kind::World) {
+      // the window's columns wrap in z like the periodic cell; a rough plate also holds
+      // copies of its edge rows just outside the cell, which that wrap would count twice
+      const Vector3& c = g.placement.translation;
+      if (c.z() < window.z_min || c.z() >= window.z_max) continue;
+      fixed_centers.push_back(c);
+      fixed_radii.push_back(g.shape.radius);
+    }
   }
-  return layerMetrics(centers, radii, window);
+  LayerMetrics metrics = layerMetrics(centers, radii, window);
+  if (!fixed_centers.empty())
+    metrics.fixed_fraction = layerMetrics(fixed_centers, fixed_radii, window).packing_fraction;
+  // a gap filled by the fixed spheres leaves no free volume to pack
+  metrics.free_volume_packing_fraction =
+      metrics.fixed_fraction < 1.0 ? metrics.packing_fraction / (1.0 - metrics.fixed_fraction)
+                                   : 0.0;
+  return metrics;
 }
 
 void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::string& path) {
@@ -35,6 +51,8 @@ void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::stri
     << ", \"plate\": " << n(w.plate) << ", \"gap\": " << n(w.gap) << ", \"cell\": " << n(w.cell)
     << ", \"resolution\": " << n(w.resolution) << "},\n"
     << "  \"packing_fraction\": " << n(m.packing_fraction) << ",\n"
+    << "  \"fixed_fraction\": " << n(m.fixed_fraction) << ",\n"
+    << "  \"free_volume_packing_fraction\": " << n(m.free_volume_packing_fraction) << ",\n"
     << "  \"effective_depth\": " << n(m.effective_depth) << ",\n"
     << "  \"effective_depth_over_gap\": " << n(m.effective_depth / w.gap) << ",\n"
     << "  \"solid_thickness\": " << n(m.solid_thickness) << ",\n"

@@ -56,6 +56,8 @@ def run(args, variant, seed):
            "height_std": layer["height"]["std"], "cell_std": layer["cell_packing"]["std"]}
     for m in METRICS:
         row[m] = layer[m]
+    # over the volume a rough plate's spheres leave free (runs older than the metric: blank)
+    row["free_volume_packing_fraction"] = layer.get("free_volume_packing_fraction", "")
     return row
 
 
