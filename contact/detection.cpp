@@ -39,6 +39,8 @@ void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
         isBall(g.shape.type) && g.body.hasDofs() && g.shape.radius <= 4.0 * median;
     (particle ? cdata.particles : cdata.large).push_back(i);
   }
+  for (std::size_t l = 0; l < cdata.large.size(); ++l)
+    if (cmodel.traits[cdata.large[l]].moving) cdata.large_moving.push_back(static_cast<int>(l));
 }
 
 }  // namespace
@@ -250,8 +252,15 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margi
       const Vector3 half = Vector3::Constant(boundingRadius(shape) + largest + margin);
       cdata.grid.query(center - half, center + half, add);
     }
-    for (std::size_t m = l + 1; m < cdata.large.size(); ++m) {
-      const int other = cdata.large[m];
+    // the same pairs in the same order as over every m > l, skipping frozen-frozen ones
+    const bool moving = cmodel.traits[g].moving;
+    const auto first_moving =
+        std::upper_bound(cdata.large_moving.begin(), cdata.large_moving.end(), static_cast<int>(l));
+    const std::size_t count =
+        moving ? cdata.large.size() - l - 1
+               : static_cast<std::size_t>(cdata.large_moving.end() - first_moving);
+    for (std::size_t k = 0; k < count; ++k) {
+      const int other = cdata.large[moving ? l + 1 + k : first_moving[k]];
       if (cmodel.mayCollide(g, other)) cdata.pairs.push_back(encodePair(g, other));
     }
   }

@@ -45,6 +45,10 @@ struct ContactData {
   std::vector<ContactPoint> points;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry
+  // grid path: positions in `large` of the geometries with dofs, ascending. Two frozen shapes
+  // never collide, and a scene may hold thousands (a rough plate's spheres): the wall-wall
+  // pairs are looked for only where one side moves.
+  std::vector<int> large_moving;
   std::vector<Vector3> particle_center;
   std::vector<double> particle_radius;
   std::vector<std::pair<int, int>> ghost_of;  // periodic images: (particle, image) per ghost

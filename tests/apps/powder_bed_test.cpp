@@ -172,6 +172,128 @@ time: {step: 1e-3}
     }
 }
 
+// A ball set down at rest on top of a spinning roller (the powder-bed roller: a driven capsule
+// along z with a prescribed spin), made large so that its top is nearly flat over the test.
+// The roller's top moves at s = omega R along -x. Friction drags the ball at mu g while it
+// slides; it rolls from t* = 2 s / (7 mu g) on, at 2 s / 7 (a ball on a moving belt, I = 2/5
+// m r^2). The spin reaches the contact only through the roller's known velocity.
+TEST(Roller, BallOnTheSpinningRollerSlidesThenRollsAtTwoSevenths) {
+  const double R = 1.0, r = 0.01, omega = 0.35, mu = 0.5, g = 9.81, h = 1e-4;
+  const double s = omega * R, t_stick = 2.0 * s / (7.0 * mu * g);
+  for (const char* scheme : {"moreau-jean", "catching-up"}) {
+    SceneFile file = sceneText(R"(
+dimension: 3
+gravity: [0, -9.81, 0]
+materials: {steel: {density: 7800}}
+contact: {friction: 0.5}
+bodies:
+  - {name: roller, shape: capsule, radius: 1.0, length: 0.5, motion: {type: velocity, angular_velocity: [0, 0, 0.35]}}
+  - {name: ball, shape: sphere, radius: 0.01, position: [0, 1.01, 0], material: steel}
+time: {step: 1e-4}
+)");
+    file.run.scheme.scheme = schemeFromName(scheme);
+    const Scene scene = buildSceneFile(file);
+    TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    const int sliding_steps = static_cast<int>(std::lround(0.5 * t_stick / h));
+    for (int k = 0; k < sliding_steps; ++k) ASSERT_NE(stepper.step().status, SolverStatus::Failed);
+    // sliding: the friction impulse is mu m g h per step (cos of the roller's slope > 1 - 1e-6)
+    EXPECT_NEAR(stepper.v()[0], -mu * g * sliding_steps * h, 1e-3 * mu * g * sliding_steps * h)
+        << scheme;
+    for (int k = sliding_steps; k < static_cast<int>(std::lround(2.0 * t_stick / h)); ++k)
+      ASSERT_NE(stepper.step().status, SolverStatus::Failed);
+    // rolling, 3 mm down the roller's side by now: gravity along its slope (angle 3e-3) has
+    // added about 0.4 % since t*
+    EXPECT_NEAR(stepper.v()[0], -2.0 * s / 7.0, 0.01 * 2.0 * s / 7.0) << scheme;
+    // no slip at the contact point: the ball's point there moves with the roller's surface
+    const Vector3 centre = stepper.q().segment<3>(0);
+    const Vector3 n(centre.x(), centre.y(), 0.0);
+    const Vector3 normal = n.normalized();
+    const Vector3 ball_point =
+        stepper.v().segment<3>(0) + stepper.v().segment<3>(3).cross(-r * normal);
+    const Vector3 roller_point = Vector3(0, 0, omega).cross(R * normal);
+    EXPECT_LT((ball_point - roller_point).norm(), 1e-5 * s) << scheme;
+  }
+}
+
+// One grain set down over a hollow of the rough plate (four frozen spheres of diameter d on a
+// square-ish lattice, pitches d along x and p along z) rests where it touches all four:
+// centre height sqrt((r + d/2)^2 - (d/2)^2 - (p/2)^2), below the r of a flat plate. Then the
+// rough plate's point: a grain rolling at 5 cm/s, which a flat plate lets roll 1.7 mm against
+// its rolling resistance, is stopped by the bumps within a fraction of that.
+TEST(RoughPlate, GrainRestsInAHollowAndBumpsStopARollingGrain) {
+  auto scene = [](const char* plate) {
+    return sceneText(std::string(R"(
+dimension: 3
+gravity: [0, -9.81, 0]
+generators:
+  - {type: powder_bed, count: 1, sizes: {diameters: [40e-6], mass_fractions: [1]}, settle_time: 1, plate: )") +
+                     plate + R"(}
+scheme: {name: moreau-jean, normal_law: vel}
+time: {step: 1e-5}
+)");
+  };
+  // the lattice, from the generated plate
+  SceneFile rough = scene("rough");
+  const BodySpec* first = nullptr;
+  const BodySpec* second = nullptr;
+  for (const BodySpec& b : rough.spec.bodies) {
+    if (b.name == "plate_sphere0") first = &b;
+    if (b.name == "plate_sphere1") second = &b;
+  }
+  ASSERT_TRUE(first && second);
+  const double d = 2.0 * first->shape.radius;
+  const double pitch_z = second->pose.translation.z() - first->pose.translation.z();
+  const double r = rough.spec.bodies.back().shape.radius;
+  ASSERT_EQ(r, 20e-6);
+  ASSERT_EQ(d, 40e-6);  // one grain: the plate's spheres take its diameter
+  const double x0 = first->pose.translation.x();
+  // a hollow 3 mm along, clear of the blade, gate and fence; between z rows 0 and 1
+  const Vector3 hollow(x0 + 75.5 * d, 0.0, first->pose.translation.z() + 1.5 * pitch_z);
+  const double rest =
+      std::sqrt(std::pow(r + 0.5 * d, 2) - std::pow(0.5 * d, 2) - std::pow(0.5 * pitch_z, 2));
+
+  auto run = [](SceneFile& file, double seconds) {
+    const Scene built = buildSceneFile(file);
+    TimeStepper stepper(built.model, built.cmodel, file.run.scheme);
+    stepper.reset(0.0, built.q0, built.v0);
+    const long steps = std::lround(seconds / file.run.scheme.h);
+    for (long k = 0; k < steps; ++k) EXPECT_NE(stepper.step().status, SolverStatus::Failed);
+    return std::make_pair(Vector3(stepper.q().segment<3>(0)), Vector3(stepper.v().segment<3>(0)));
+  };
+
+  rough.spec.bodies.back().pose.translation = hollow + Vector3(0.0, rest + 5e-6, 0.0);
+  const auto [settled, settled_v] = run(rough, 0.005);
+  // at rest in contact with four spheres, the gap closed to round-off (VEL leaves no overlap
+  // at rest; it is h times the last small impact speed)
+  EXPECT_NEAR(settled.y(), rest, 1e-9);
+  EXPECT_NEAR(settled.x(), hollow.x(), 1e-9);
+  EXPECT_NEAR(settled.z(), hollow.z(), 1e-9);
+  EXPECT_LT(settled_v.norm(), 1e-6);
+
+  // rolling without slip from the start: along x, spin about -z
+  const double speed = 0.05;
+  auto roll = [&](SceneFile& file, double height) {
+    BodySpec& grain = file.spec.bodies.back();
+    grain.pose.translation = Vector3(hollow.x(), height, hollow.z());
+    grain.velocity = Vector3(speed, 0.0, 0.0);
+    grain.angular_velocity = Vector3(0.0, 0.0, -speed / r);
+    return run(file, 0.08);
+  };
+  SceneFile flat = scene("flat");
+  const auto [flat_end, flat_v] = roll(flat, r);
+  SceneFile rough_roll = scene("rough");
+  const auto [rough_end, rough_v] = roll(rough_roll, rest);
+  // flat: decelerates at mu_r g / (1 + 2/5) while it rolls, then stops
+  const double flat_distance = speed * speed / (2.0 * 0.1 * 9.81 / 1.4);
+  EXPECT_NEAR(flat_end.x() - hollow.x(), flat_distance, 1e-4 * flat_distance);
+  EXPECT_LT(flat_v.norm(), 1e-6);
+  // rough: over a few bumps (6 pitches with this seed), at rest in a hollow, not through it
+  EXPECT_LT(std::abs(rough_end.x() - hollow.x()), 0.25 * flat_distance);
+  EXPECT_LT(rough_v.norm(), 1e-6);
+  EXPECT_NEAR(rough_end.y(), rest, 0.01 * r);
+}
+
 TEST(LayerMetrics, OneSphereAndOneAcrossThePeriodicEdge) {
   LayerWindow w;
   w.x_min = 0.0;
