@@ -37,6 +37,9 @@ const char* frictionThresholdName(FrictionThreshold threshold) {
 
 void NlgsSettings::validate(const std::string& owner) const {
   const auto show = formatValue;
+  if (residual_check_interval < 0)
+    throw InputError(owner + ".residual_check_interval must be >= 0, got " +
+                     std::to_string(residual_check_interval));
   if (max_iterations < 1)
     throw InputError(owner + ".max_iterations must be >= 1, got " + std::to_string(max_iterations));
   if (!(std::isfinite(tolerance) && tolerance > 0.0))
@@ -165,6 +168,13 @@ double relative(double num2, double den2) {
   return den2 > 0.0 ? std::sqrt(num2 / den2) : std::sqrt(num2);
 }
 
+// Whether to evaluate the residual after sweep `it` (from 0), whose impulse change is change2
+// against size2.
+bool residualDue(const NlgsSettings& settings, int it, double change2, double size2) {
+  return relative(change2, size2) < settings.tolerance ||
+         (settings.residual_check_interval > 0 && (it + 1) % settings.residual_check_interval == 0);
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -287,7 +297,7 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       if (hasRollingRow(p, R, c)) rollingUpdate(p, c, P_new.x(), omega, (*R)[c], v, change2, size2);
     }
     stats.iterations = it + 1;
-    if (relative(change2, size2) < settings.tolerance) {
+    if (residualDue(settings, it, change2, size2)) {
       stats.residual = coulombResidual(p, P, R, v, ws, n);
       if (stats.residual < settings.tolerance) {
         stats.status = SolverStatus::Converged;
@@ -385,7 +395,7 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
       size2 += W_NN * lambda_new * lambda_new;
     }
     stats.iterations = it + 1;
-    if (relative(change2, size2) < settings.tolerance) {
+    if (residualDue(settings, it, change2, size2)) {
       stats.residual = normalResidual(p, lambda_N, v, ws, n);
       if (stats.residual < settings.tolerance) return stats;
     }

@@ -633,11 +633,16 @@ class SceneParser {
   }
 
   NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
-    f.allowOnly({"max_iterations", "tolerance", "relaxation", "shuffle", "seed", "local_solver"});
+    f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation", "shuffle",
+                 "seed", "local_solver"});
     const long cap = f.integer("max_iterations", s.max_iterations);
     if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
     s.max_iterations = static_cast<int>(cap);
     s.tolerance = f.positive("tolerance", s.tolerance);
+    const long interval = f.integer("residual_check_interval", s.residual_check_interval);
+    if (interval < 0 || interval > 100000000)
+      f["residual_check_interval"].fail("must be in [0, 10^8] (0: only once the impulses settle)");
+    s.residual_check_interval = static_cast<int>(interval);
     s.relaxation = f.positive("relaxation", s.relaxation);
     if (!(s.relaxation < 2.0)) f["relaxation"].fail("must be in (0, 2)");
     s.shuffle = f.boolean("shuffle", s.shuffle);
@@ -820,6 +825,7 @@ void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
   out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
+  out << YAML::Key << "residual_check_interval" << YAML::Value << s.residual_check_interval;
   out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
   out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
   out << YAML::Key << "seed" << YAML::Value << s.seed;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "framework/dynamics.hpp"
 #include "framework/kinematics.hpp"
@@ -252,6 +253,51 @@ TEST(ContactIslands, SameAnswerAsOneSolve) {
   EXPECT_EQ(solveCoulombNlgs(islands, tight, P1, v1, ws).status, SolverStatus::Converged);
   EXPECT_EQ(solveCoulombNlgs(whole, tight, P2, v2, ws).status, SolverStatus::Converged);
   EXPECT_LT((v1 - v2).norm(), 1e-9 * v_free.norm());
+}
+
+// A settled frictional pile is hyperstatic: its friction impulses drift along a set of
+// solutions after the natural-map residual is met. Warm started near a solution (as every
+// step of a resting pile is), a solve that checks the residual every few sweeps stops there;
+// one that waits for the impulses to settle first sweeps on for nothing. Both answers meet
+// the tolerance.
+TEST(ResidualCheck, StopsOnceTheResidualIsMetOnAHyperstaticPile) {
+  GranularBoxParameters parameters;
+  parameters.count = 150;
+  const Scene scene = granularBox(parameters);
+  SchemeSettings settings;
+  settings.h = 2e-4;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 1500; ++k) stepper.step();
+  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Vel);
+  ASSERT_GT(step.problem.size(), 150);
+  NlgsWorkspace ws;
+  ws.prepare(step.problem.size(), scene.model.nv);
+  NlgsSettings solver;
+  solver.max_iterations = 100000;
+  solver.tolerance = 1e-10;
+  std::vector<Vector3> solution(step.problem.size(), Vector3::Zero());
+  VectorX v = step.v_free;
+  ASSERT_EQ(solveCoulombNlgs(step.problem, solver, solution, v, ws).status,
+            SolverStatus::Converged);
+  // a warm start 1 % off the solution, deterministically
+  std::vector<Vector3> warm = solution;
+  for (std::size_t c = 0; c < warm.size(); ++c) warm[c] *= 1.0 + 0.01 * std::sin(1.0 + c);
+  solver.tolerance = 1e-6;
+  std::vector<NlgsStats> stats;
+  for (int interval : {0, 10}) {
+    solver.residual_check_interval = interval;
+    std::vector<Vector3> P = warm;
+    v = step.v_free;
+    stats.push_back(solveCoulombNlgs(step.problem, solver, P, v, ws));
+    EXPECT_EQ(stats.back().status, SolverStatus::Converged) << interval;
+    EXPECT_LT(stats.back().residual, solver.tolerance) << interval;
+  }
+  std::printf(
+      "from a warm start 1 %% off: %d sweeps checking the residual every 10, %d checking "
+      "it once the impulses settle\n",
+      stats[1].iterations, stats[0].iterations);
+  EXPECT_LT(stats[1].iterations, stats[0].iterations);
 }
 
 }  // namespace
