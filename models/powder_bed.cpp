@@ -296,7 +296,10 @@ LayerMetrics layerMetrics(const std::vector<Vector3>& centers, const std::vector
     const double r = radii[s];
     if (c.x() + r < w.x_min || c.x() - r > w.x_max) continue;
     ++m.particles;
-    m.highest_top = std::max(m.highest_top, c.y() + r - w.plate);
+    if (m.highest_particle < 0 || c.y() + r - w.plate > m.highest_top) {
+      m.highest_top = c.y() + r - w.plate;
+      m.highest_particle = static_cast<int>(s);
+    }
     const int i0 = std::max(0, static_cast<int>(std::floor((c.x() - r - w.x_min) / dx)));
     const int i1 =
         std::min(m.columns_x - 1, static_cast<int>(std::floor((c.x() + r - w.x_min) / dx)));

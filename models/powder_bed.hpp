@@ -75,8 +75,12 @@ struct LayerMetrics {
   double height_mean = 0.0, height_std = 0.0;  // surface height over all columns
   double cell_mean = 0.0, cell_std = 0.0, cell_min = 0.0, cell_max = 0.0;  // per-cell packing
   int cells = 0;
-  int particles = 0;         // spheres touching the window's columns
-  double highest_top = 0.0;  // highest sphere top over the window, above the plate
+  int particles = 0;          // spheres touching the window's columns
+  double highest_top = 0.0;   // highest sphere top over the window, above the plate
+  int highest_particle = -1;  // index of the sphere with that top in the centres given
+  // speed of that sphere (measureLayer with velocities): a grain in flight at the end of a run
+  // stands there only for the moment, and is not a grain the spreader left above the gap
+  double highest_top_speed = 0.0;
   // Spheres that do not move (a rough plate) take part of the gap's volume themselves; the
   // grains' packing fraction over what they leave free compares rough and flat plates.
   double fixed_fraction = 0.0;  // fixed spheres' volume in [plate, plate + gap] / window

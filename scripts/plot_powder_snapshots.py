@@ -69,7 +69,9 @@ def main(argv):
     if not snapshots:
         sys.exit(f"plot_powder_snapshots.py: {args.run}/snapshots.pvd lists no snapshots")
     times = [float(t) for t in args.times.split(",")]
-    fig, axes = plt.subplots(len(times), 1, figsize=(10, 1.9 * len(times) + 0.6), squeeze=False,
+    x_view = args.x_max or 6e-3
+    panel = 8.0 * (args.y_max / x_view) + 0.45  # inches: equal aspect in a 10-inch figure
+    fig, axes = plt.subplots(len(times), 1, figsize=(10, panel * len(times) + 0.3), squeeze=False,
                              layout="constrained")
     norm = plt.Normalize(0.0, args.v_max)
     mappable = None

@@ -13,16 +13,26 @@
 
 namespace sweep {
 
-LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window) {
+LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window,
+                          const VectorX* v) {
   Data data(scene.model);
-  forwardKinematics(scene.model, data, q);
+  if (v)
+    forwardKinematics(scene.model, data, q, *v);
+  else
+    forwardKinematics(scene.model, data, q);
   std::vector<Vector3> centers, fixed_centers;
-  std::vector<double> radii, fixed_radii;
+  std::vector<double> radii, fixed_radii, speeds;
   for (const Geometry& g : scene.cmodel.geometries) {
     if (g.shape.type != ShapeType::Sphere) continue;
     if (g.body.kind == BodyRef::Kind::Dynamic) {
       centers.push_back((data.world_pose[g.body.index] * g.placement).translation);
       radii.push_back(g.shape.radius);
+      if (v) {
+        // spatial velocity in body coordinates: (angular, velocity of the body origin)
+        const Vector6& twist = data.velocity[g.body.index];
+        const Vector3 at_centre = twist.tail<3>() + twist.head<3>().cross(g.placement.translation);
+        speeds.push_back(at_centre.norm());
+      }
     } else if (g.body.kind == BodyRef::Kind::World) {
       // the window's columns wrap in z like the periodic cell; a rough plate also holds
       // copies of its edge rows just outside the cell, which that wrap would count twice
@@ -33,6 +43,8 @@ LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindo
     }
   }
   LayerMetrics metrics = layerMetrics(centers, radii, window);
+  if (v && metrics.highest_particle >= 0)
+    metrics.highest_top_speed = speeds[metrics.highest_particle];
   if (!fixed_centers.empty())
     metrics.fixed_fraction = layerMetrics(fixed_centers, fixed_radii, window).packing_fraction;
   // a gap filled by the fixed spheres leaves no free volume to pack
@@ -58,7 +70,8 @@ void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::stri
     << "  \"solid_thickness\": " << n(m.solid_thickness) << ",\n"
     << "  \"coverage\": " << n(m.coverage) << ",\n"
     << "  \"height\": {\"mean\": " << n(m.height_mean) << ", \"std\": " << n(m.height_std)
-    << ", \"highest_top\": " << n(m.highest_top) << "},\n"
+    << ", \"highest_top\": " << n(m.highest_top)
+    << ", \"highest_top_speed\": " << n(m.highest_top_speed) << "},\n"
     << "  \"cell_packing\": {\"cells\": " << m.cells << ", \"mean\": " << n(m.cell_mean)
     << ", \"std\": " << n(m.cell_std) << ", \"min\": " << n(m.cell_min)
     << ", \"max\": " << n(m.cell_max) << "},\n"

@@ -10,7 +10,8 @@ namespace sweep {
 
 // Metrics of every sphere on a free body at configuration q; spheres fixed to the world (a
 // rough plate) give fixed_fraction.
-LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window);
+LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindow& window,
+                          const VectorX* v = nullptr);
 
 // layer.json: the window and the metrics; written atomically.
 void writeLayerJson(const LayerMetrics& metrics, const LayerWindow& window,

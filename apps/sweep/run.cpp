@@ -252,7 +252,8 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       state << "v," << i << ',' << exactNumber(stepper.v()[i]) << '\n';
     writeFileAtomically(options.out_dir + "/final_state.csv", state.str());
     if (settings.output.layer) {
-      const LayerMetrics layer = measureLayer(scene, stepper.q(), *settings.output.layer);
+      const LayerMetrics layer =
+          measureLayer(scene, stepper.q(), *settings.output.layer, &stepper.v());
       writeLayerJson(layer, *settings.output.layer, options.out_dir + "/layer.json");
       writeHeightMapPng(layer, *settings.output.layer, options.out_dir + "/layer_height.png");
     }

@@ -30,7 +30,17 @@ VARIANTS = {
     "roller": ("counter-rotating roller", ["generators[0].spreader=roller"]),
     "h5e-6": ("h = 5e-6 s", ["time.step=5e-6"]),
     "h2e-5": ("h = 2e-5 s", ["time.step=2e-5"]),
+    "h1e-6": ("h = 1e-6 s", ["time.step=1e-6"]),
     "catching-up": ("staggered scheme", ["scheme.name=catching-up"]),
+    # the staggered scheme at the tolerance the Jean-Moreau studies use (1e-4), and with its
+    # friction stage cut to 150 sweeps (it hits the 1500 cap on most steps either way)
+    "catching-up-1e-4": ("staggered, tolerance 1e-4",
+                         ["scheme.name=catching-up", "scheme.normal_stage.tolerance=1e-4",
+                          "scheme.friction_stage.tolerance=1e-4"]),
+    "catching-up-cap150": ("staggered, 5b cap 150",
+                           ["scheme.name=catching-up", "scheme.normal_stage.tolerance=1e-4",
+                            "scheme.friction_stage.tolerance=1e-4",
+                            "scheme.friction_stage.max_iterations=150"]),
     "pos": ("Jean-Moreau with the POS law", ["scheme.normal_law=pos"]),
 }
 METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]

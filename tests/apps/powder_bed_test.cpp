@@ -333,18 +333,19 @@ materials: {grain: {density: 4430}}
 bodies:
   - {name: bump, shape: sphere, radius: 20.0e-6, position: [0.25e-3, 0, 0.25e-3], fixed: true}
   - {name: bump_copy, shape: sphere, radius: 20.0e-6, position: [0.25e-3, 0, -0.25e-3], fixed: true}
-  - {name: grain, shape: sphere, radius: 20.0e-6, position: [0.75e-3, 20.0e-6, 0.25e-3], material: grain}
+  - {name: grain, shape: sphere, radius: 20.0e-6, position: [0.75e-3, 20.0e-6, 0.25e-3], velocity: [0, 0.3, 0.4], angular_velocity: [0, 0, 1000], material: grain}
 output: {layer: {x_min: 0, x_max: 1.0e-3, z_min: 0, z_max: 0.5e-3, gap: 100.0e-6, resolution: 0.5e-6}}
 )");
   const Scene scene = buildSceneFile(file);
-  const LayerMetrics m = measureLayer(scene, scene.q0, *file.run.output.layer);
+  const LayerMetrics m = measureLayer(scene, scene.q0, *file.run.output.layer, &scene.v0);
   const double r = 20e-6, window = 1e-3 * 0.5e-3 * 100e-6;
   const double ball = 4.0 / 3.0 * M_PI * r * r * r;
   // 2e-3: the column discretisation of a sphere at 0.5 um columns, as in the test above
   EXPECT_NEAR(m.packing_fraction, ball / window, 2e-3 * m.packing_fraction);
   EXPECT_NEAR(m.fixed_fraction, 0.5 * ball / window, 2e-3 * m.fixed_fraction);
   EXPECT_DOUBLE_EQ(m.free_volume_packing_fraction, m.packing_fraction / (1.0 - m.fixed_fraction));
-  EXPECT_EQ(m.particles, 1);  // the bump is not a grain
+  EXPECT_EQ(m.particles, 1);                     // the bump is not a grain
+  EXPECT_NEAR(m.highest_top_speed, 0.5, 1e-12);  // the grain's, its spin adding nothing
 }
 
 TEST(PowderBed, SizesFollowTheMassFractions) {
