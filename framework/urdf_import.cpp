@@ -25,8 +25,15 @@ class CapturedLog : public console_bridge::OutputHandler {
       if (!messages.empty()) messages += "; ";
       messages += text;
     }
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) {
+      if (!errors.empty()) errors += "; ";
+      errors += text;
+    }
   }
   std::string messages;
+  // urdfdom logs some errors and goes on without the element it could not read (an
+  // <inertial> with a bad origin): the model it returns is not the file's
+  std::string errors;
 };
 
 // console_bridge restores by swapping its current and previous handlers, so after a capture
@@ -42,6 +49,7 @@ class LogCapture {
  public:
   explicit LogCapture(bool format_messages) : level_(console_bridge::getLogLevel()) {
     log().messages.clear();
+    log().errors.clear();
     console_bridge::useOutputHandler(&log());
     if (!format_messages) console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   }
@@ -52,6 +60,7 @@ class LogCapture {
   LogCapture(const LogCapture&) = delete;
   LogCapture& operator=(const LogCapture&) = delete;
   const std::string& messages() const { return log().messages; }
+  const std::string& errors() const { return log().errors; }
 
  private:
   static CapturedLog& log() {
@@ -302,6 +311,9 @@ int importParsed(ModelBuilder& builder, const std::string& xml, const std::strin
       reasons = e.what();
     }
     if (reasons.empty()) reasons = capture.messages();
+    if (urdf && !capture.errors().empty())
+      throw InputError(source + ": urdfdom reported an error and left part of the file out: " +
+                       capture.errors());
   }
   if (!urdf && reasons.empty() && percent != std::string::npos) {
     const auto line = 1 + std::count(xml.begin(), xml.begin() + percent, '\n');
