@@ -18,11 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.collections import PatchCollection, PolyCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
-
-def series(run_dir):
-    root = ET.parse(os.path.join(run_dir, "snapshots.pvd")).getroot()
-    return [(float(d.get("timestep")), os.path.join(run_dir, d.get("file")))
-            for d in root.findall("./Collection/DataSet")]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_snapshots import series, vtp_cells  # noqa: E402
 
 
 def load(path):
@@ -35,16 +32,7 @@ def load(path):
     velocity = [float(x) for x in arrays["velocity"]]
 
     def cells(tag):
-        block = piece.find(f"./{tag}")
-        if block is None:
-            return []
-        conn = [int(x) for x in (block.find("./DataArray[@Name='connectivity']").text or "").split()]
-        offs = [int(x) for x in (block.find("./DataArray[@Name='offsets']").text or "").split()]
-        out, start = [], 0
-        for end in offs:
-            out.append(conn[start:end])
-            start = end
-        return out
+        return vtp_cells(piece, tag)
 
     spheres = []
     for c in cells("Verts"):

@@ -24,6 +24,20 @@ def series(run_dir):
             for d in root.findall("./Collection/DataSet")]
 
 
+def vtp_cells(piece, tag):
+    """The point indices of each cell of a VTK PolyData piece's Verts, Lines or Polys."""
+    block = piece.find(f"./{tag}")
+    if block is None:
+        return []
+    conn = [int(x) for x in (block.find("./DataArray[@Name='connectivity']").text or "").split()]
+    offs = [int(x) for x in (block.find("./DataArray[@Name='offsets']").text or "").split()]
+    out, start = [], 0
+    for end in offs:
+        out.append(conn[start:end])
+        start = end
+    return out
+
+
 def load(path):
     piece = ET.parse(path).getroot().find("./PolyData/Piece")
     arrays = {a.get("Name"): a.text.split() for a in piece.findall("./PointData/DataArray")}
@@ -31,14 +45,7 @@ def load(path):
     points = [(xyz[3 * i], xyz[3 * i + 1]) for i in range(len(xyz) // 3)]
 
     def cells(tag):
-        block = piece.find(f"./{tag}")
-        conn = [int(x) for x in (block.find("./DataArray[@Name='connectivity']").text or "").split()]
-        offs = [int(x) for x in (block.find("./DataArray[@Name='offsets']").text or "").split()]
-        out, start = [], 0
-        for end in offs:
-            out.append(conn[start:end])
-            start = end
-        return out
+        return vtp_cells(piece, tag)
 
     radius = [float(r) for r in arrays["radius"]]
     disks = [(points[c[0]], radius[c[0]]) for c in cells("Verts")]
