@@ -1,6 +1,7 @@
 #include "integrators/contact_problem.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "contact/detection.hpp"
 
@@ -53,6 +54,55 @@ void ContactProblem::pack2d() {
       minv2d.push_back({minv_h[k].x(), minv_h[k].y(), minv_dof[k]});
     row.minv_end = static_cast<int>(minv2d.size());
     rows2d.push_back(row);
+  }
+}
+
+void ContactProblem::pack3d() {
+  rows3d.clear();
+  h3d.clear();
+  minv3d.clear();
+  if (dimension != 3) return;
+  for (int c = 0; c < size(); ++c) {
+    PackedRow3d row;
+    row.W = delassus[c];
+    row.W_inverse = delassus_inverse[c];
+    row.known = known[c];
+    row.bias = normal_bias[c];
+    row.mu = friction[c];
+    row.begin = static_cast<int>(h3d.size());
+    for (int k = begin[c]; k < begin[c + 1]; ++k) {
+      PackedEntry3d entry{h[k].x(), h[k].y(), h[k].z(), 0.0, 0.0, dof[k]};
+      if (rolling) {
+        entry.rolling1 = rolling_h[k].x();
+        entry.rolling2 = rolling_h[k].y();
+      }
+      h3d.push_back(entry);
+    }
+    row.end = static_cast<int>(h3d.size());
+    row.minv_begin = static_cast<int>(minv3d.size());
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) {
+      PackedEntry3d entry{minv_h[k].x(), minv_h[k].y(), minv_h[k].z(), 0.0, 0.0, minv_dof[k]};
+      if (rolling) {
+        entry.rolling1 = rolling_minv_h[k].x();
+        entry.rolling2 = rolling_minv_h[k].y();
+      }
+      minv3d.push_back(entry);
+    }
+    row.minv_end = static_cast<int>(minv3d.size());
+    if (rolling && rolling_bound[c] > 0.0) {
+      row.rolling_bound = rolling_bound[c];
+      row.rolling_W = rolling_delassus[c];
+      row.rolling_known = rolling_known[c];
+      const Matrix2& W_r = row.rolling_W;
+      const double trace = W_r.trace();
+      if (std::abs(W_r(0, 1)) <= 1e-12 * trace && std::abs(W_r(0, 0) - W_r(1, 1)) <= 1e-12 * trace)
+        row.rolling_isotropic_inverse = 1.0 / W_r(0, 0);
+      // H_r^T M^-1 H_c: how the contact's own impulse turns the rolling velocity
+      for (int k = begin[c]; k < begin[c + 1]; ++k)
+        for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m)
+          if (minv_dof[m] == dof[k]) row.rolling_coupling += rolling_h[k] * minv_h[m].transpose();
+    }
+    rows3d.push_back(row);
   }
 }
 
@@ -232,6 +282,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   for (int c = 0; c < n; ++c)
     p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
   p.pack2d();
+  p.pack3d();
 }
 
 }  // namespace sweep

@@ -78,6 +78,32 @@ struct ContactProblem {
   std::vector<PackedEntry2d> h2d, minv2d;
   void pack2d();  // from the arrays above; call after changing them (none with rolling rows)
 
+  // 3D scenes, scheme A: the same packing with the rolling rows folded in, so that one update
+  // reads H once and writes v once for the contact and its rolling rows together (the rolling
+  // velocity after the contact's own update is U_r + rolling_coupling dP). Filled by pack3d().
+  struct PackedRow3d {
+    Matrix3 W;
+    Matrix3 W_inverse;
+    Vector3 known;
+    double bias = 0.0;
+    double mu = 0.0;
+    Eigen::Matrix<double, 2, 3> rolling_coupling = Eigen::Matrix<double, 2, 3>::Zero();
+    Matrix2 rolling_W = Matrix2::Identity();
+    Vector2 rolling_known = Vector2::Zero();
+    double rolling_bound = 0.0;  // 0: no rolling row
+    // 1 / W_r(0, 0) when W_r is a multiple of the identity (spheres), else 0: the disc
+    // projection is then Euclidean and closed-form
+    double rolling_isotropic_inverse = 0.0;
+    int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
+  };
+  struct PackedEntry3d {
+    double normal = 0.0, tangent1 = 0.0, tangent2 = 0.0, rolling1 = 0.0, rolling2 = 0.0;
+    int dof = 0;
+  };
+  std::vector<PackedRow3d> rows3d;
+  std::vector<PackedEntry3d> h3d, minv3d;
+  void pack3d();  // from the arrays above; call after changing them
+
   int size() const { return static_cast<int>(contact.size()); }
   int islandCount() const {
     return island_begin.empty() ? 1 : static_cast<int>(island_begin.size()) - 1;

@@ -250,12 +250,73 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   size2 += P_new.squaredNorm();
 }
 
+// One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
+// same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
+// the velocity the contact left), equal to it up to round-off.
+inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
+                            const ContactProblem::PackedEntry3d* h,
+                            const ContactProblem::PackedEntry3d* minv, double omega,
+                            LocalSolver3d local_solver, Vector3& P, Vector2* R, VectorX& v,
+                            double& change2, double& size2, int& failures) {
+  Vector3 u = r.known;
+  Vector2 u_rolling = r.rolling_known;
+  for (int k = r.begin; k < r.end; ++k) {
+    const double vk = v[h[k].dof];
+    u.x() += h[k].normal * vk;
+    u.y() += h[k].tangent1 * vk;
+    u.z() += h[k].tangent2 * vk;
+    u_rolling.x() += h[k].rolling1 * vk;
+    u_rolling.y() += h[k].rolling2 * vk;
+  }
+  Vector3 q = u - r.W * P;
+  q.x() += r.bias;
+  Vector3 P_new = Vector3::Zero();
+  bool ok = true;
+  if (r.mu == 0.0)
+    P_new.x() = std::max(-q.x() * r.W_inverse(0, 0), 0.0);
+  else if (local_solver == LocalSolver3d::Enumeration)
+    ok = solveCoulomb3d(r.W, r.W_inverse, q, r.mu, P_new);
+  else
+    ok = solveCoulomb3dNewton(r.W, r.W_inverse, q, r.mu, P, P_new);
+  failures += ok ? 0 : 1;
+  if (omega != 1.0) P_new = omega * P_new + (1.0 - omega) * P;
+  const Vector3 dP = P_new - P;
+  P = P_new;
+  change2 += dP.squaredNorm();
+  size2 += P_new.squaredNorm();
+  Vector2 dR = Vector2::Zero();
+  if (R != nullptr && r.rolling_bound > 0.0) {
+    u_rolling += r.rolling_coupling * dP;
+    const double radius = r.rolling_bound * std::max(P_new.x(), 0.0);
+    Vector2 target;
+    if (r.rolling_isotropic_inverse > 0.0) {
+      target = *R - u_rolling * r.rolling_isotropic_inverse;
+      const double norm2 = target.squaredNorm();
+      if (norm2 > radius * radius) target *= radius / std::sqrt(norm2);
+    } else {
+      target = minimizeOnDisc(r.rolling_W, *R, u_rolling, radius);
+    }
+    dR = omega * (target - *R);
+    *R += dR;
+    const double lever2 = r.rolling_bound * r.rolling_bound;
+    change2 += dR.squaredNorm() / lever2;
+    size2 += R->squaredNorm() / lever2;
+  }
+  for (int k = r.minv_begin; k < r.minv_end; ++k)
+    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent1 * dP.y() +
+                      minv[k].tangent2 * dP.z() + minv[k].rolling1 * dR.x() +
+                      minv[k].rolling2 * dR.y();
+}
+
 NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
                         std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
                         NlgsWorkspace& ws, int n) {
   NlgsStats stats;
   const double omega = settings.relaxation;
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
+  const bool packed3d = p.dimension == 3 &&
+                        static_cast<int>(p.rows3d.size()) == p.size() &&
+                        (R == nullptr || static_cast<int>(R->size()) == p.size());
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
@@ -267,7 +328,15 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
                         stats.local_failures);
       }
     }
-    for (int k = 0; k < (packed ? 0 : n); ++k) {
+    if (packed3d) {
+      for (int k = 0; k < n; ++k) {
+        const int c = ws.order[k];
+        coulombUpdate3d(p.rows3d[c], p.h3d.data(), p.minv3d.data(), omega, settings.local_solver_3d,
+                        P[c], R != nullptr ? &(*R)[c] : nullptr, v, change2, size2,
+                        stats.local_failures);
+      }
+    }
+    for (int k = 0; k < (packed || packed3d ? 0 : n); ++k) {
       const int c = ws.order[k];
       const Matrix3& W = p.delassus[c];
       // local free velocity: the current one without this contact's own impulse

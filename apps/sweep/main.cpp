@@ -89,6 +89,9 @@ int main(int argc, char** argv) {
   run->add_option("--t-end", t_end, "end time (s)");
   run->add_option("--out", out_dir, "output folder")->default_val("results");
   run->add_flag("--quiet", quiet, "no progress");
+  std::string initial_state;
+  run->add_option("--initial-state", initial_state,
+                  "start from a final_state.csv of an earlier run of this scene (its t, q, v)");
 
   sweep::BenchOptions bench_options;
   CLI::App* bench = app.add_subcommand("bench", "run time against penetration over h and schemes");
@@ -159,6 +162,12 @@ int main(int argc, char** argv) {
       options.progress = !quiet;
       options.progress_bar = isatty(STDERR_FILENO) != 0;
       options.stop = &g_stop;
+      sweep::SavedState start;
+      if (!initial_state.empty()) {
+        start = sweep::readSavedState(initial_state, scene.model);
+        options.start = &start;
+        std::cout << "  starting from " << initial_state << " at t = " << start.t << " s\n";
+      }
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
       printSummary(summary, out_dir, std::cout);
       return summary.interrupted ? 130 : 0;

@@ -135,14 +135,95 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
   if (error) throw std::runtime_error(path + ": cannot rename into place: " + error.message());
 }
 
+SavedState readSavedState(const std::string& path, const Model& model) {
+  std::error_code error;
+  if (!fs::is_regular_file(path, error))
+    throw InputError(path + ": saved state does not exist or is not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the saved state");
+  SavedState state;
+  state.q = VectorX::Constant(model.nq, std::nan(""));
+  state.v = VectorX::Constant(model.nv, std::nan(""));
+  std::vector<char> seen_q(model.nq, 0), seen_v(model.nv, 0);
+  char seen_t = 0;
+  std::string line;
+  int number = 0;
+  auto fail = [&](const std::string& what) {
+    throw InputError(path + ":" + std::to_string(number) + ": " + what);
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (number == 1) {
+      if (line != "vector,index,value")
+        fail("expected the header 'vector,index,value' of a final_state.csv, got '" +
+             line.substr(0, 80) + "'");
+      continue;
+    }
+    if (line.empty()) continue;
+    std::istringstream row(line);
+    std::string kind, index_text, value_text;
+    if (!std::getline(row, kind, ',') || !std::getline(row, index_text, ',') ||
+        !std::getline(row, value_text))
+      fail("expected 'vector,index,value', got '" + line.substr(0, 80) + "'");
+    std::size_t used = 0;
+    long index = -1;
+    double value = 0.0;
+    try {
+      index = std::stol(index_text, &used);
+      if (used != index_text.size()) index = -1;
+      value = std::stod(value_text, &used);
+      if (used != value_text.size()) fail("value '" + value_text + "' is not a number");
+    } catch (const std::logic_error&) {
+      fail("'" + line.substr(0, 80) + "' is not 'vector,index,number'");
+    }
+    if (!std::isfinite(value))
+      fail(kind + "[" + index_text + "] = " + value_text + " is not finite");
+    const long size = kind == "q" ? model.nq : kind == "v" ? model.nv : kind == "t" ? 1 : -1;
+    if (size < 0) fail("vector '" + kind + "' is none of t, q, v");
+    if (index < 0 || index >= size)
+      fail(kind + " index " + index_text + " is out of range [0, " + std::to_string(size) +
+           ") for this scene (nq = " + std::to_string(model.nq) +
+           ", nv = " + std::to_string(model.nv) + ")");
+    char& seen = kind == "t" ? seen_t : kind == "q" ? seen_q[index] : seen_v[index];
+    if (seen) fail(kind + "[" + index_text + "] is given twice");
+    seen = 1;
+    if (kind == "t")
+      state.t = value;
+    else if (kind == "q")
+      state.q[index] = value;
+    else
+      state.v[index] = value;
+  }
+  if (!seen_t)
+    throw InputError(path +
+                     ": no 't' row (the time of the state; written by sweep 0.1.0 runs "
+                     "since 2026-11-22: add a row 't,0,TIME' after the header)");
+  for (int i = 0; i < model.nq; ++i)
+    if (!seen_q[i])
+      throw InputError(path + ": q[" + std::to_string(i) + "] is missing (the scene has nq = " +
+                       std::to_string(model.nq) + ": a state of another scene?)");
+  for (int i = 0; i < model.nv; ++i)
+    if (!seen_v[i])
+      throw InputError(path + ": v[" + std::to_string(i) + "] is missing (the scene has nv = " +
+                       std::to_string(model.nv) + ": a state of another scene?)");
+  return state;
+}
+
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
   settings.scheme.validate();
   if (!(settings.t_end > 0.0) || !std::isfinite(settings.t_end))
     throw InputError("t_end must be > 0, got " + exactNumber(settings.t_end));
   const double h = settings.scheme.h;
-  const long steps = std::max(1L, std::lround(settings.t_end / h));
+  const double t_start = options.start ? options.start->t : 0.0;
+  if (options.start && !(settings.t_end > t_start + 0.5 * h))
+    throw InputError("t_end = " + exactNumber(settings.t_end) +
+                     " s leaves no step after the saved state's t = " + exactNumber(t_start) +
+                     " s");
+  const long steps = std::max(1L, std::lround((settings.t_end - t_start) / h));
   if (steps > 2000000000L)
-    throw InputError("t_end / dt = " + exactNumber(settings.t_end / h) + " steps is too many");
+    throw InputError("(t_end - t_start) / dt = " + exactNumber((settings.t_end - t_start) / h) +
+                     " steps is too many");
 
   const bool files = !options.out_dir.empty();
   if (files) {
@@ -164,7 +245,10 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   if (files && snapshots) vtk = std::make_unique<VtkSeries>(scene, options.out_dir);
 
   TimeStepper stepper(scene.model, scene.cmodel, settings.scheme, scene.forces);
-  stepper.reset(0.0, scene.q0, scene.v0);
+  if (options.start)
+    stepper.reset(t_start, options.start->q, options.start->v);
+  else
+    stepper.reset(0.0, scene.q0, scene.v0);
 
   RunSummary summary;
   summary.scheme = schemeName(settings.scheme.scheme);
@@ -179,7 +263,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   double next_snapshot = 0.0;
   if (vtk) {
     vtk->write(stepper);
-    next_snapshot = settings.output.vtk_interval;
+    next_snapshot = t_start + settings.output.vtk_interval;
   }
 
   Progress progress(options, steps, h);
@@ -246,6 +330,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     // start another from it
     std::ostringstream state;
     state << "vector,index,value\n";
+    state << "t,0," << exactNumber(stepper.time()) << '\n';
     for (Eigen::Index i = 0; i < stepper.q().size(); ++i)
       state << "q," << i << ',' << exactNumber(stepper.q()[i]) << '\n';
     for (Eigen::Index i = 0; i < stepper.v().size(); ++i)

@@ -11,6 +11,18 @@
 
 namespace sweep {
 
+// A state to start a run from: what a run writes to final_state.csv (the time, q and v), so
+// that one settled heap can be spread many times ("settle once, spread many").
+struct SavedState {
+  double t = 0.0;
+  VectorX q, v;
+};
+
+// Reads a final_state.csv written by `sweep run` for `model`. InputError naming the file, the
+// line and the value for a missing file, a malformed row, a value that is not finite, or a
+// state of another size than the model's (nq, nv).
+SavedState readSavedState(const std::string& path, const Model& model);
+
 struct RunOptions {
   std::string out_dir;                      // empty: no files
   bool progress = false;                    // report progress on `log`
@@ -18,6 +30,7 @@ struct RunOptions {
   std::ostream* log = nullptr;              // progress and messages; null: silent
   const std::atomic<bool>* stop = nullptr;  // set by a signal: stop after the current step
   bool keep_iterations = false;             // keep every step's iteration counts in the summary
+  const SavedState* start = nullptr;        // null: the scene's own q0, v0 at t = 0
 };
 
 struct Distribution {
@@ -45,8 +58,9 @@ struct RunSummary {
   std::vector<int> iterations_per_step;  // when RunOptions::keep_iterations
 };
 
-// Runs `scene` from t = 0 to settings.t_end. Throws InputError for bad settings, and
-// std::runtime_error when an output cannot be written or the state stops being finite.
+// Runs `scene` from t = 0 (or options.start's t) to settings.t_end. Throws InputError for bad
+// settings, and std::runtime_error when an output cannot be written or the state stops being
+// finite.
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options);
 
 // summary.json, written atomically

@@ -176,7 +176,7 @@ class Inputs(unittest.TestCase):
             with open(os.path.join(out, "final_state.csv"), "rb") as f:
                 state = f.read()
             states.append(hashlib.sha256(state).hexdigest())
-        self.assertEqual(len(state.decode().splitlines()), 1 + 72 + 72)
+        self.assertEqual(len(state.decode().splitlines()), 1 + 1 + 72 + 72)
         self.assertEqual(states[0], states[1])
         header = data.decode().splitlines()[0]
         self.assertEqual(header, HEADER.rsplit(",t_detect", 1)[0])
@@ -188,6 +188,75 @@ class Inputs(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("scene is valid", r.stdout)
         self.assertIn("24 with a constant mass block", r.stdout)
+
+
+class Restart(unittest.TestCase):
+    """--initial-state: a run continues from another run's final_state.csv (its t, q, v)."""
+
+    def run_to(self, t_end, *extra):
+        out = scratch_dir(self, "sweep_restart_")
+        r = sweep("run", "loads_3d.yaml", "--out", out, "--quiet", "--t-end", str(t_end), *extra)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        return out, r
+
+    def test_two_halves_end_where_one_run_ends(self):
+        """No contacts, so no warm start is lost: the halves give the same bits. The torque
+        ramps with t, so a restart that forgot the saved time would end elsewhere."""
+        whole, _ = self.run_to(0.5)
+        half, _ = self.run_to(0.25)
+        second, r = self.run_to(0.5, "--initial-state", os.path.join(half, "final_state.csv"))
+        self.assertIn("starting from", r.stdout)
+        with open(os.path.join(whole, "final_state.csv")) as f:
+            expected = f.read()
+        with open(os.path.join(second, "final_state.csv")) as f:
+            got = f.read()
+        self.assertTrue(expected.startswith("vector,index,value\nt,0,0.5"), expected[:60])
+        self.assertEqual(got, expected)
+        rows = read_csv(os.path.join(second, "stats.csv"))
+        self.assertEqual(len(rows), 250)
+        self.assertAlmostEqual(float(rows[0]["t"]), 0.251, places=12)
+        # and from t = 0 instead the same 250 steps end elsewhere
+        with open(os.path.join(half, "final_state.csv")) as f:
+            no_time = "".join(l for l in f if not l.startswith("t,"))
+        state = os.path.join(scratch_dir(self, "sweep_restart_"), "state.csv")
+        with open(state, "w") as f:
+            f.write(no_time.replace("vector,index,value\n", "vector,index,value\nt,0,0\n"))
+        third, _ = self.run_to(0.25, "--initial-state", state)
+        with open(os.path.join(third, "final_state.csv")) as f:
+            self.assertNotEqual(f.read().split("\n", 2)[2], expected.split("\n", 2)[2])
+
+    def test_bad_saved_states_exit_2_naming_file_line_and_value(self):
+        half, _ = self.run_to(0.25)
+        with open(os.path.join(half, "final_state.csv")) as f:
+            good = f.read().splitlines()
+        folder = scratch_dir(self, "sweep_restart_bad_")
+        cases = {
+            "missing.csv": (None, "saved state does not exist"),
+            "header.csv": (["q,0,1"] + good[1:], "header"),
+            "nan.csv": (good[:3] + ["q,1,nan"] + good[4:], "q[1] = nan is not finite"),
+            "range.csv": (good + ["v,6,0"], "v index 6 is out of range [0, 6)"),
+            "short.csv": (good[:-1], "v[5] is missing"),
+            "twice.csv": (good + ["q,0,1"], "q[0] is given twice"),
+            "kind.csv": (good + ["w,0,1"], "vector 'w' is none of t, q, v"),
+            "text.csv": (good[:2] + ["q,0,abc"] + good[3:], "is not 'vector,index,number'"),
+            "no_time.csv": ([good[0]] + good[2:], "no 't' row"),
+        }
+        for name, (lines, message) in cases.items():
+            path = os.path.join(folder, name)
+            if lines is not None:
+                with open(path, "w") as f:
+                    f.write("\n".join(lines) + "\n")
+            out = os.path.join(folder, "out_" + name)
+            r = sweep("run", "loads_3d.yaml", "--out", out, "--quiet", "--initial-state", path)
+            self.assertEqual(r.returncode, 2, name + ": " + r.stderr)
+            self.assertIn(path, r.stderr, name)
+            self.assertIn(message, r.stderr, name)
+            self.assertFalse(os.path.exists(os.path.join(out, "summary.json")), name)
+        # a state at or after t_end leaves nothing to run
+        r = sweep("run", "loads_3d.yaml", "--quiet", "--out", os.path.join(folder, "late"),
+                  "--t-end", "0.2", "--initial-state", os.path.join(half, "final_state.csv"))
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("leaves no step after the saved state's t = 0.25", r.stderr)
 
 
 class Interrupt(unittest.TestCase):

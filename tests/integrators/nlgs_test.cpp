@@ -10,7 +10,9 @@
 #include "framework/kinematics.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
+#include "models/powder_bed.hpp"
 #include "models/rigid_bodies.hpp"
+#include "models/scene_spec.hpp"
 #include "solver_fixtures.hpp"
 
 namespace sweep {
@@ -374,6 +376,66 @@ INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedRows,
                          [](const ::testing::TestParamInfo<TangentMode>& mode) {
                            return std::string(tangentModeName(mode.param));
                          });
+
+}  // namespace
+}  // namespace sweep
+
+namespace sweep {
+namespace {
+
+// The packed 3D rows fold each contact's rolling rows into its own pass (the rolling velocity
+// after the contact's update taken as U_r + W_rc dP): the same block Gauss-Seidel as the
+// generic rows, so the same sweeps and the same velocities to round-off, on a powder heap
+// with friction and rolling resistance.
+TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
+  PowderBedParameters parameters;
+  parameters.count = 120;
+  parameters.length = 1.5e-3;
+  parameters.travel = 0.5e-3;
+  parameters.heap_length = 0.4e-3;
+  parameters.settle_time = 0.01;
+  const Scene scene = buildScene(powderBed(parameters));
+  ASSERT_TRUE(scene.cmodel.rolling);
+  SchemeSettings settings;
+  settings.h = 1e-5;
+  settings.normal_law = NormalLaw::Vel;
+  TimeStepper stepper(scene.model, scene.cmodel, settings, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 800; ++k) stepper.step();
+
+  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Iqs);
+  const ContactProblem& packed = step.problem;
+  ASSERT_EQ(static_cast<int>(packed.rows3d.size()), packed.size());
+  ASSERT_GT(packed.size(), 100);
+  int rolling_rows = 0;
+  for (const auto& row : packed.rows3d) rolling_rows += row.rolling_bound > 0.0 ? 1 : 0;
+  ASSERT_GT(rolling_rows, 100);
+  ContactProblem generic = packed;
+  generic.rows3d.clear();
+
+  NlgsSettings solver;
+  solver.max_iterations = 200;  // the paths are compared, not the converged answers
+  NlgsWorkspace ws;
+  ws.prepare(packed.size(), scene.model.nv);
+  const double scale = step.v_free.norm();
+  for (const LocalSolver3d local : {LocalSolver3d::AlartCurnier, LocalSolver3d::Enumeration}) {
+    solver.local_solver_3d = local;
+    std::vector<Vector3> P1(packed.size(), Vector3::Zero()), P2 = P1;
+    std::vector<Vector2> R1(packed.size(), Vector2::Zero()), R2 = R1;
+    VectorX v1 = step.v_free, v2 = step.v_free;
+    const NlgsStats s1 = solveCoulombNlgs(packed, solver, P1, v1, ws, &R1);
+    const NlgsStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
+    EXPECT_EQ(s1.iterations, s2.iterations);
+    EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * scale);  // the contacts did act
+    EXPECT_LT((v1 - v2).norm(), 1e-10 * scale);
+    double rolling_impulse = 0.0;
+    for (int c = 0; c < packed.size(); ++c) {
+      rolling_impulse += R1[c].norm();
+      EXPECT_LT((R1[c] - R2[c]).norm(), 1e-10 * (1e-12 + R2[c].norm())) << c;
+    }
+    EXPECT_GT(rolling_impulse, 0.0);
+  }
+}
 
 }  // namespace
 }  // namespace sweep
