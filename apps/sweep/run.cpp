@@ -58,10 +58,11 @@ void appendStatsRow(std::ostream& out, const StepStats& s, bool timings) {
 
 class Progress {
  public:
-  Progress(const RunOptions& options, long steps, double dt)
-      : options_(options), steps_(steps), dt_(dt), start_(Clock::now()), last_(start_) {}
+  Progress(const RunOptions& options, long steps)
+      : options_(options), steps_(steps), start_(Clock::now()), last_(start_) {}
 
-  void update(long step, bool last) {
+  // t: the simulated time reached (absolute: a restarted run does not start at 0)
+  void update(long step, double t, bool last) {
     if (!options_.progress || options_.log == nullptr) return;
     const auto now = Clock::now();
     const double since = std::chrono::duration<double>(now - last_).count();
@@ -75,7 +76,7 @@ class Progress {
     std::ostream& out = *options_.log;
     std::ostringstream line;
     line << std::fixed << std::setprecision(0) << std::setw(3) << 100.0 * fraction << "% step "
-         << step << "/" << steps_ << "  t = " << std::setprecision(5) << step * dt_ << " s  "
+         << step << "/" << steps_ << "  t = " << std::setprecision(5) << t << " s  "
          << std::setprecision(0) << rate << " steps/s  ETA " << formatDuration(eta);
     if (options_.progress_bar) {
       const int width = 24;
@@ -91,7 +92,6 @@ class Progress {
   using Clock = std::chrono::steady_clock;
   const RunOptions& options_;
   long steps_;
-  double dt_;
   Clock::time_point start_, last_;
 };
 
@@ -266,7 +266,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     next_snapshot = t_start + settings.output.vtk_interval;
   }
 
-  Progress progress(options, steps, h);
+  Progress progress(options, steps);
   const auto wall_start = std::chrono::steady_clock::now();
   const double cpu_start = processCpuSeconds();
   for (long k = 0; k < steps; ++k) {
@@ -302,7 +302,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       if (every || interval) vtk->write(stepper);
     }
     const bool stopping = options.stop != nullptr && options.stop->load();
-    progress.update(s.step, k + 1 == steps || stopping);
+    progress.update(s.step, s.t, k + 1 == steps || stopping);
     if (stopping) {
       summary.interrupted = true;
       break;

@@ -42,6 +42,8 @@ VARIANTS = {
                             "scheme.friction_stage.tolerance=1e-4",
                             "scheme.friction_stage.max_iterations=150"]),
     "pos": ("Jean-Moreau with the POS law", ["scheme.normal_law=pos"]),
+    # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
+    "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
 }
 METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]
 
