@@ -44,6 +44,7 @@ VARIANTS = {
     "pos": ("Jean-Moreau with the POS law", ["scheme.normal_law=pos"]),
     # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
     "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
+    "rough-iqs": ("rough plate, IQS law", ["generators[0].plate=rough", "scheme.normal_law=iqs"]),
 }
 METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]
 
