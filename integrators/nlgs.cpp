@@ -314,8 +314,7 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
   NlgsStats stats;
   const double omega = settings.relaxation;
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
-  const bool packed3d = p.dimension == 3 &&
-                        static_cast<int>(p.rows3d.size()) == p.size() &&
+  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
                         (R == nullptr || static_cast<int>(R->size()) == p.size());
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
