@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "framework/error.hpp"
@@ -31,6 +32,9 @@ const char* tangentModeName(TangentMode mode) {
   }
   return "?";
 }
+const char* nlgsAccelerationName(NlgsAcceleration acceleration) {
+  return acceleration == NlgsAcceleration::Nncg ? "nncg" : "none";
+}
 const char* frictionThresholdName(FrictionThreshold threshold) {
   return threshold == FrictionThreshold::Physical ? "physical" : "metric";
 }
@@ -58,6 +62,17 @@ void NlgsWorkspace::prepare(int contacts, int nv) {
   threshold.resize(contacts);
   held_normal.resize(contacts);
   for (int c = 0; c < contacts; ++c) order[c] = c;
+  P_before.resize(contacts);
+  P_direction.resize(contacts);
+  R_before.resize(contacts);
+  R_direction.resize(contacts);
+  if (v_before.size() < nv) {
+    v_before.resize(nv);
+    v_direction.resize(nv);
+    island_dofs.resize(nv);
+    dof_stamp.assign(nv, 0);
+    stamp = 0;
+  }
 }
 
 namespace {
@@ -214,6 +229,8 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
   warmStartRolling(p, R, v);
   if (p.size() == 0) return total;
+  if (settings.acceleration == NlgsAcceleration::Nncg && ws.v_before.size() < v.size())
+    ws.prepare(p.size(), static_cast<int>(v.size()));  // callers that sized for no velocities
   for (int island = 0; island < p.islandCount(); ++island) {
     const int n = selectIsland(p, island, ws);
     NlgsStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
@@ -308,11 +325,97 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
                       minv[k].rolling2 * dR.y();
 }
 
+constexpr double kNncgRestart = 1.5;
+
+// NNCG bookkeeping over the island in ws.order[0, n): the dofs its rows move, and the
+// iterate before the next sweep. The copies are stored by position in the island (k for
+// rows, i for dofs), so that the two passes per sweep stream through them.
+class NncgMomentum {
+ public:
+  NncgMomentum(const ContactProblem& p, const std::vector<Vector3>& P,
+               const std::vector<Vector2>* R, const VectorX& v, NlgsWorkspace& ws, int n)
+      : ws_(ws), n_(n), rolling_(R != nullptr) {
+    if (++ws.stamp == 0) {  // wrapped: stamps from long ago could match again
+      std::fill(ws.dof_stamp.begin(), ws.dof_stamp.end(), 0);
+      ws.stamp = 1;
+    }
+    for (int k = 0; k < n; ++k) {
+      const int c = ws.order[k];
+      for (int e = p.minv_begin[c]; e < p.minv_begin[c + 1]; ++e) {
+        const int dof = p.minv_dof[e];
+        if (ws.dof_stamp[dof] == ws.stamp) continue;
+        ws.dof_stamp[dof] = ws.stamp;
+        ws.island_dofs[dofs_++] = dof;
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      const int c = ws.order[k];
+      ws.P_before[k] = P[c];
+      ws.P_direction[k].setZero();
+      if (rolling_) {
+        ws.R_before[k] = (*R)[c];
+        ws.R_direction[k].setZero();
+      }
+    }
+    for (int i = 0; i < dofs_; ++i) {
+      ws.v_before[i] = v[ws.island_dofs[i]];
+      ws.v_direction[i] = 0.0;
+    }
+  }
+
+  // After a sweep whose own impulse change was change2: the momentum step and the new
+  // direction, and the snapshot for the next sweep.
+  void step(double change2, std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v) {
+    double beta = previous_change2_ > 0.0 ? change2 / previous_change2_ : 0.0;
+    // Restart along steepest descent once a sweep loses ground. Silcowitz-Hansen et al.
+    // restart at beta > 1; with friction and rolling resistance the sweep's change is not
+    // monotone even on the way to convergence, and on the powder heap that rule restarted
+    // a third of the sweeps. 1.5 halved the sweeps again; 3 let the momentum run away
+    // (docs/powder_bed.md, "NNCG").
+    if (beta > kNncgRestart) beta = 0.0;
+    previous_change2_ = change2;
+    for (int k = 0; k < n_; ++k) {
+      Vector3& P_c = P[ws_.order[k]];
+      Vector3& direction = ws_.P_direction[k];
+      const Vector3 delta = P_c - ws_.P_before[k];
+      P_c += beta * direction;
+      direction = beta * direction + delta;
+      ws_.P_before[k] = P_c;
+    }
+    if (rolling_) {
+      for (int k = 0; k < n_; ++k) {
+        Vector2& R_c = (*R)[ws_.order[k]];
+        Vector2& direction = ws_.R_direction[k];
+        const Vector2 delta = R_c - ws_.R_before[k];
+        R_c += beta * direction;
+        direction = beta * direction + delta;
+        ws_.R_before[k] = R_c;
+      }
+    }
+    for (int i = 0; i < dofs_; ++i) {
+      double& v_i = v[ws_.island_dofs[i]];
+      const double delta = v_i - ws_.v_before[i];
+      v_i += beta * ws_.v_direction[i];
+      ws_.v_direction[i] = beta * ws_.v_direction[i] + delta;
+      ws_.v_before[i] = v_i;
+    }
+  }
+
+ private:
+  NlgsWorkspace& ws_;
+  int n_;
+  bool rolling_;
+  int dofs_ = 0;
+  double previous_change2_ = 0.0;
+};
+
 NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
                         std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
                         NlgsWorkspace& ws, int n) {
   NlgsStats stats;
   const double omega = settings.relaxation;
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg) momentum.emplace(p, P, R, v, ws, n);
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
   const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
                         (R == nullptr || static_cast<int>(R->size()) == p.size());
@@ -372,6 +475,8 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
         return stats;
       }
     }
+    // not after the last sweep: the impulses returned are a sweep's output
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, P, R, v);
   }
   stats.residual = coulombResidual(p, P, R, v, ws, n);
   stats.status =

@@ -25,6 +25,16 @@ const char* solverStatusName(SolverStatus status);
 // fallback (default), or the exact enumeration (a sign scan of the sliding direction).
 enum class LocalSolver3d { AlartCurnier, Enumeration };
 
+// Acceleration of scheme A's sweeps. Nncg is the nonsmooth nonlinear conjugate gradient of
+// Silcowitz-Hansen, Niebe & Erleben (The Visual Computer 26, 2010): each Gauss-Seidel sweep
+// is taken as a steepest-descent step and followed by a Fletcher-Reeves momentum,
+//   x_{k+1} = GS(x_k) + beta_k p_{k-1},  p_k = GS(x_k) - x_k + beta_k p_{k-1},
+//   beta_k = |GS(x_k) - x_k|^2 / |GS(x_{k-1}) - x_{k-1}|^2, restarted (beta = 0) when > 1.5,
+// on the impulses and, through v = v_free + M^-1 H P, on the velocities. The residual is
+// checked on the Gauss-Seidel iterate, so the solution returned is one sweep's output.
+enum class NlgsAcceleration { None, Nncg };
+const char* nlgsAccelerationName(NlgsAcceleration acceleration);
+
 struct NlgsSettings {
   int max_iterations = 3000;
   // relative natural-map residual, checked once the relative impulse change is below it, and
@@ -37,6 +47,7 @@ struct NlgsSettings {
   bool shuffle = false;     // random contact order every sweep (seeded, deterministic)
   std::uint32_t seed = 1;
   LocalSolver3d local_solver_3d = LocalSolver3d::AlartCurnier;
+  NlgsAcceleration acceleration = NlgsAcceleration::None;  // scheme A only
 
   void validate(const std::string& owner) const;  // InputError naming the field
 };
@@ -60,6 +71,13 @@ struct NlgsWorkspace {
   VectorX v_normal;                 // friction stage: v_N = M^-1 N_A y
   std::vector<Vector2> coupling;    // friction stage: W_TN / W_NN per contact
   std::vector<Matrix2> schur;       // friction stage: W_TT - W_TN W_NT / W_NN per contact
+  // NNCG: the iterate before the sweep and the search direction, per contact and per dof of
+  // the island (island_dofs; dof_stamp marks them without clearing between islands)
+  std::vector<Vector3> P_before, P_direction;
+  std::vector<Vector2> R_before, R_direction;
+  VectorX v_before, v_direction;
+  std::vector<int> island_dofs, dof_stamp;
+  int stamp = 0;
 };
 
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.

@@ -632,9 +632,10 @@ class SceneParser {
     }
   }
 
-  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
+  // acceleration: only scheme A's solver has one (NNCG); the stages of B refuse the key
+  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s, bool accelerable = false) {
     f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation", "shuffle",
-                 "seed", "local_solver"});
+                 "seed", "local_solver", "acceleration"});
     const long cap = f.integer("max_iterations", s.max_iterations);
     if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
     s.max_iterations = static_cast<int>(cap);
@@ -656,6 +657,15 @@ class SceneParser {
       s.local_solver_3d = LocalSolver3d::Enumeration;
     else
       f["local_solver"].fail("must be alart-curnier or enumeration");
+    if (!accelerable && f.has("acceleration"))
+      f["acceleration"].fail("is only available for scheme.coulomb (scheme A)");
+    const std::string acceleration = f.text("acceleration", nlgsAccelerationName(s.acceleration));
+    if (acceleration == "none")
+      s.acceleration = NlgsAcceleration::None;
+    else if (acceleration == "nncg")
+      s.acceleration = NlgsAcceleration::Nncg;
+    else
+      f["acceleration"].fail("must be none or nncg");
     return s;
   }
 
@@ -694,7 +704,7 @@ class SceneParser {
       s.friction.threshold = FrictionThreshold::Metric;
     else
       f["threshold"].fail("must be physical or metric");
-    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
+    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, true);
     if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
     if (f.has("friction_stage"))
       s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage);
@@ -821,7 +831,8 @@ const char* shapeKeyword(ShapeType type) {
   }
 }
 
-void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
+void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s,
+                bool accelerable = false) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
   out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
@@ -829,6 +840,8 @@ void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
   out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
   out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
   out << YAML::Key << "seed" << YAML::Value << s.seed;
+  if (accelerable)
+    out << YAML::Key << "acceleration" << YAML::Value << nlgsAccelerationName(s.acceleration);
   out << YAML::EndMap;
 }
 
@@ -1016,7 +1029,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "normal_law" << YAML::Value << law;
   out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
   out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
-  emitSolver(out, "coulomb", s.coulomb);
+  emitSolver(out, "coulomb", s.coulomb, true);
   emitSolver(out, "normal_stage", s.normal_stage);
   emitSolver(out, "friction_stage", s.friction_stage);
   out << YAML::EndMap;

@@ -45,6 +45,10 @@ VARIANTS = {
     # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
     "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
     "rough-iqs": ("rough plate, IQS law", ["generators[0].plate=rough", "scheme.normal_law=iqs"]),
+    # Jean-Moreau's sweeps accelerated by NNCG (docs/powder_bed.md): same problem, same tolerance
+    "nncg": ("Jean-Moreau, NNCG sweeps", ["scheme.coulomb.acceleration=nncg"]),
+    "rough-nncg": ("rough plate, NNCG sweeps",
+                   ["generators[0].plate=rough", "scheme.coulomb.acceleration=nncg"]),
 }
 METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]
 
