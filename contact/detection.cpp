@@ -279,8 +279,10 @@ void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata, double margin
   }
 }
 
-// Sorts pairs (a < b) in linear time: counting sort on a, then insertion sort on b inside
-// each run, which holds a handful of neighbours.
+// Sorts pairs (a < b): counting sort on a, then each run on b. A grain's run holds a
+// handful of neighbours and is insertion-sorted; a plate's or a wall's holds every grain
+// near it (thousands under a powder layer), where insertion sort was quadratic and took
+// 80 % of detection (docs/powder_bed.md): those runs go to std::sort.
 void sortPairs(int geometries, ContactData& cdata) {
   std::vector<int>& start = cdata.pair_start;
   start.assign(geometries + 1, 0);
@@ -290,9 +292,19 @@ void sortPairs(int geometries, ContactData& cdata) {
   for (const auto& pair : cdata.pairs) cdata.sorted_pairs[start[pair.first]++] = pair;
   std::swap(cdata.pairs, cdata.sorted_pairs);
   auto& pairs = cdata.pairs;
-  for (std::size_t k = 1; k < pairs.size(); ++k)
-    for (std::size_t m = k; m > 0 && pairs[m] < pairs[m - 1]; --m)
-      std::swap(pairs[m], pairs[m - 1]);
+  constexpr int kInsertionRun = 32;
+  int run_begin = 0;
+  for (int g = 0; g < geometries; ++g) {
+    const int run_end = start[g];  // after the scatter, start[g] is the end of g's run
+    if (run_end - run_begin > kInsertionRun) {
+      std::sort(pairs.begin() + run_begin, pairs.begin() + run_end);
+    } else {
+      for (int k = run_begin + 1; k < run_end; ++k)
+        for (int m = k; m > run_begin && pairs[m] < pairs[m - 1]; --m)
+          std::swap(pairs[m], pairs[m - 1]);
+    }
+    run_begin = run_end;
+  }
 }
 
 }  // namespace

@@ -20,8 +20,16 @@ Data::Data(const Model& model)
   for (const Component& c : model.components) mass_blocks.emplace_back(MatrixX::Zero(c.nv, c.nv));
   // constant blocks do not depend on q: any configuration will do, so take the neutral one
   computeMassBlocks(model, *this, model.neutralConfiguration(), /*include_constant=*/true);
-  for (size_t c = 0; c < model.components.size(); ++c)
-    if (model.components[c].constant_mass) mass_factors[c].compute(mass_blocks[c]);
+  constant_inverse6.assign(model.components.size(), Matrix6::Zero());
+  has_constant_inverse6.assign(model.components.size(), 0);
+  for (size_t c = 0; c < model.components.size(); ++c) {
+    if (!model.components[c].constant_mass) continue;
+    mass_factors[c].compute(mass_blocks[c]);
+    if (model.components[c].nv == 6 && mass_factors[c].info() == Eigen::Success) {
+      constant_inverse6[c] = mass_factors[c].solve(MatrixX::Identity(6, 6));
+      has_constant_inverse6[c] = 1;
+    }
+  }
 }
 
 }  // namespace sweep

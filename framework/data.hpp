@@ -23,6 +23,11 @@ struct Data {
   // per component: M block, and its Cholesky factor (constant blocks are factored here, once)
   std::vector<MatrixX> mass_blocks;
   std::vector<Eigen::LLT<MatrixX>> mass_factors;
+  // constant 6 x 6 blocks (free rigid bodies: every grain) also as their inverse, so that the
+  // contact assembly's M^-1 H is one fixed-size product instead of a dynamic-size triangular
+  // solve per contact (docs/powder_bed.md); empty matrices elsewhere
+  std::vector<Matrix6> constant_inverse6;
+  std::vector<char> has_constant_inverse6;
 
   VectorX tau;  // generalized force out of rnea()
   VectorX ddq;  // generalized acceleration out of forwardDynamics()

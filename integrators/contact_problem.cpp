@@ -166,7 +166,14 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     for (int comp : ws.touched) {
       const Component& component = model.components[comp];
       MatrixX& solved = ws.component_rhs[comp];
-      data.mass_factors[comp].solveInPlace(solved);
+      if (data.has_constant_inverse6[comp]) {
+        Eigen::Matrix<double, 6, 5> rhs = Eigen::Matrix<double, 6, 5>::Zero();
+        rhs.leftCols(rhs_columns) = solved;
+        const Eigen::Matrix<double, 6, 5> product = data.constant_inverse6[comp] * rhs;
+        solved = product.leftCols(rhs_columns);
+      } else {
+        data.mass_factors[comp].solveInPlace(solved);
+      }
       for (int i = 0; i < component.nv; ++i) {
         p.minv_dof.push_back(component.v_index + i);
         p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));

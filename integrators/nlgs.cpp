@@ -62,10 +62,8 @@ void NlgsWorkspace::prepare(int contacts, int nv) {
   threshold.resize(contacts);
   held_normal.resize(contacts);
   for (int c = 0; c < contacts; ++c) order[c] = c;
-  P_before.resize(contacts);
-  P_direction.resize(contacts);
-  R_before.resize(contacts);
-  R_direction.resize(contacts);
+  impulse_before.resize(5 * static_cast<std::size_t>(contacts));  // widest: P and R, 3 + 2
+  impulse_direction.resize(5 * static_cast<std::size_t>(contacts));
   if (v_before.size() < nv) {
     v_before.resize(nv);
     v_direction.resize(nv);
@@ -81,6 +79,15 @@ void nextOrder(const NlgsSettings& settings, NlgsWorkspace& ws, int iteration, i
   if (!settings.shuffle) return;
   if (iteration == 0) ws.rng.seed(settings.seed);
   std::shuffle(ws.order.begin(), ws.order.begin() + count, ws.rng);
+}
+
+// Callers that prepared the workspace for no velocities get it sized here, once per solve.
+void prepareNncg(const NlgsSettings& settings, const ContactProblem& p, const VectorX& v,
+                 NlgsWorkspace& ws) {
+  if (settings.acceleration == NlgsAcceleration::Nncg &&
+      (ws.v_before.size() < v.size() ||
+       ws.impulse_before.size() < 5 * static_cast<std::size_t>(p.size())))
+    ws.prepare(p.size(), static_cast<int>(v.size()));
 }
 
 // Puts the rows of island i in ws.order[0, count) and returns count.
@@ -229,8 +236,7 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
   warmStartRolling(p, R, v);
   if (p.size() == 0) return total;
-  if (settings.acceleration == NlgsAcceleration::Nncg && ws.v_before.size() < v.size())
-    ws.prepare(p.size(), static_cast<int>(v.size()));  // callers that sized for no velocities
+  prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
     const int n = selectIsland(p, island, ws);
     NlgsStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
@@ -327,14 +333,35 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
 
 constexpr double kNncgRestart = 1.5;
 
+// One per-contact impulse array a solver sweeps: contact c owns data[c * width, + width).
+struct ImpulseArray {
+  double* data = nullptr;  // null: absent (no rolling rows)
+  int width = 0;
+};
+static_assert(sizeof(Vector3) == 3 * sizeof(double) && sizeof(Vector2) == 2 * sizeof(double),
+              "impulse vectors are read as packed doubles");
+ImpulseArray impulses(std::vector<Vector3>& x) {
+  return {x.data()->data(), 3};
+}
+ImpulseArray impulses(std::vector<Vector2>* x) {
+  return x == nullptr || x->empty() ? ImpulseArray{} : ImpulseArray{x->data()->data(), 2};
+}
+ImpulseArray impulses(std::vector<double>& x) {
+  return {x.data(), 1};
+}
+
 // NNCG bookkeeping over the island in ws.order[0, n): the dofs its rows move, and the
-// iterate before the next sweep. The copies are stored by position in the island (k for
-// rows, i for dofs), so that the two passes per sweep stream through them.
+// iterate before the next sweep. The copies are stored by position in the island, so that
+// the two passes per sweep stream through them.
 class NncgMomentum {
  public:
-  NncgMomentum(const ContactProblem& p, const std::vector<Vector3>& P,
-               const std::vector<Vector2>* R, const VectorX& v, NlgsWorkspace& ws, int n)
-      : ws_(ws), n_(n), rolling_(R != nullptr) {
+  NncgMomentum(const ContactProblem& p, std::initializer_list<ImpulseArray> arrays,
+               const VectorX& v, NlgsWorkspace& ws, int n)
+      : ws_(ws), n_(n) {
+    for (const ImpulseArray& array : arrays) {
+      if (array.data == nullptr) continue;
+      arrays_[array_count_++] = array;
+    }
     if (++ws.stamp == 0) {  // wrapped: stamps from long ago could match again
       std::fill(ws.dof_stamp.begin(), ws.dof_stamp.end(), 0);
       ws.stamp = 1;
@@ -348,13 +375,14 @@ class NncgMomentum {
         ws.island_dofs[dofs_++] = dof;
       }
     }
+    int slot = 0;
     for (int k = 0; k < n; ++k) {
-      const int c = ws.order[k];
-      ws.P_before[k] = P[c];
-      ws.P_direction[k].setZero();
-      if (rolling_) {
-        ws.R_before[k] = (*R)[c];
-        ws.R_direction[k].setZero();
+      for (int a = 0; a < array_count_; ++a) {
+        const double* x = arrays_[a].data + ws.order[k] * arrays_[a].width;
+        for (int j = 0; j < arrays_[a].width; ++j, ++slot) {
+          ws.impulse_before[slot] = x[j];
+          ws.impulse_direction[slot] = 0.0;
+        }
       }
     }
     for (int i = 0; i < dofs_; ++i) {
@@ -363,9 +391,9 @@ class NncgMomentum {
     }
   }
 
-  // After a sweep whose own impulse change was change2: the momentum step and the new
-  // direction, and the snapshot for the next sweep.
-  void step(double change2, std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v) {
+  // After a sweep whose own impulse change was change2 (in the solver's norm): the momentum
+  // step, the new direction, and the snapshot for the next sweep.
+  void step(double change2, VectorX& v) {
     double beta = previous_change2_ > 0.0 ? change2 / previous_change2_ : 0.0;
     // Restart along steepest descent once a sweep loses ground. Silcowitz-Hansen et al.
     // restart at beta > 1; with friction and rolling resistance the sweep's change is not
@@ -374,37 +402,31 @@ class NncgMomentum {
     // (docs/powder_bed.md, "NNCG").
     if (beta > kNncgRestart) beta = 0.0;
     previous_change2_ = change2;
+    int slot = 0;
     for (int k = 0; k < n_; ++k) {
-      Vector3& P_c = P[ws_.order[k]];
-      Vector3& direction = ws_.P_direction[k];
-      const Vector3 delta = P_c - ws_.P_before[k];
-      P_c += beta * direction;
-      direction = beta * direction + delta;
-      ws_.P_before[k] = P_c;
-    }
-    if (rolling_) {
-      for (int k = 0; k < n_; ++k) {
-        Vector2& R_c = (*R)[ws_.order[k]];
-        Vector2& direction = ws_.R_direction[k];
-        const Vector2 delta = R_c - ws_.R_before[k];
-        R_c += beta * direction;
-        direction = beta * direction + delta;
-        ws_.R_before[k] = R_c;
+      for (int a = 0; a < array_count_; ++a) {
+        double* x = arrays_[a].data + ws_.order[k] * arrays_[a].width;
+        for (int j = 0; j < arrays_[a].width; ++j, ++slot)
+          advance(beta, x[j], ws_.impulse_before[slot], ws_.impulse_direction[slot]);
       }
     }
-    for (int i = 0; i < dofs_; ++i) {
-      double& v_i = v[ws_.island_dofs[i]];
-      const double delta = v_i - ws_.v_before[i];
-      v_i += beta * ws_.v_direction[i];
-      ws_.v_direction[i] = beta * ws_.v_direction[i] + delta;
-      ws_.v_before[i] = v_i;
-    }
+    for (int i = 0; i < dofs_; ++i)
+      advance(beta, v[ws_.island_dofs[i]], ws_.v_before[i], ws_.v_direction[i]);
   }
 
  private:
+  // x holds GS(x_k); before holds x_k; direction holds p_{k-1}
+  static void advance(double beta, double& x, double& before, double& direction) {
+    const double sweep_change = x - before;
+    x += beta * direction;
+    direction = beta * direction + sweep_change;
+    before = x;
+  }
+
   NlgsWorkspace& ws_;
   int n_;
-  bool rolling_;
+  ImpulseArray arrays_[3];
+  int array_count_ = 0;
   int dofs_ = 0;
   double previous_change2_ = 0.0;
 };
@@ -415,7 +437,8 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
   NlgsStats stats;
   const double omega = settings.relaxation;
   std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg) momentum.emplace(p, P, R, v, ws, n);
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n);
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
   const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
                         (R == nullptr || static_cast<int>(R->size()) == p.size());
@@ -476,7 +499,7 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       }
     }
     // not after the last sweep: the impulses returned are a sweep's output
-    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, P, R, v);
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
   }
   stats.residual = coulombResidual(p, P, R, v, ws, n);
   stats.status =
@@ -516,6 +539,7 @@ NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings
   NlgsStats total;
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
   if (p.size() == 0) return total;
+  prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
     const int n = selectIsland(p, island, ws);
     NlgsStats island_stats = normalIsland(p, settings, lambda_N, v, ws, n);
@@ -531,6 +555,9 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
                        std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws, int n) {
   NlgsStats stats;
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(lambda_N)}, v, ws, n);
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
@@ -572,6 +599,7 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
       stats.residual = normalResidual(p, lambda_N, v, ws, n);
       if (stats.residual < settings.tolerance) return stats;
     }
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
   }
   stats.residual = normalResidual(p, lambda_N, v, ws, n);
   stats.status =
@@ -810,9 +838,15 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   };
 
   NlgsStats total;
+  prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
     count = selectIsland(p, island, ws);
     NlgsStats island_stats;
+    std::optional<NncgMomentum> momentum;
+    if (settings.acceleration == NlgsAcceleration::Nncg)
+      momentum.emplace(
+          p, std::initializer_list<ImpulseArray>{impulses(&lambda_T), impulses(delta), impulses(R)},
+          v, ws, count);
     for (int it = 0; it < settings.max_iterations; ++it) {
       nextOrder(settings, ws, it, count);
       double change2 = 0.0, size2 = 0.0;
@@ -822,6 +856,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
         island_stats.residual = sweep(true, change2, size2);
         if (island_stats.residual < settings.tolerance) break;
       }
+      if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
     }
     if (island_stats.iterations == settings.max_iterations) {
       double change2 = 0.0, size2 = 0.0;

@@ -47,7 +47,7 @@ struct NlgsSettings {
   bool shuffle = false;     // random contact order every sweep (seeded, deterministic)
   std::uint32_t seed = 1;
   LocalSolver3d local_solver_3d = LocalSolver3d::AlartCurnier;
-  NlgsAcceleration acceleration = NlgsAcceleration::None;  // scheme A only
+  NlgsAcceleration acceleration = NlgsAcceleration::None;
 
   void validate(const std::string& owner) const;  // InputError naming the field
 };
@@ -73,8 +73,7 @@ struct NlgsWorkspace {
   std::vector<Matrix2> schur;       // friction stage: W_TT - W_TN W_NT / W_NN per contact
   // NNCG: the iterate before the sweep and the search direction, per contact and per dof of
   // the island (island_dofs; dof_stamp marks them without clearing between islands)
-  std::vector<Vector3> P_before, P_direction;
-  std::vector<Vector2> R_before, R_direction;
+  std::vector<double> impulse_before, impulse_direction;
   VectorX v_before, v_direction;
   std::vector<int> island_dofs, dof_stamp;
   int stamp = 0;

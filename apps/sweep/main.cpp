@@ -41,9 +41,13 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
         << s.normal_stage.max_iterations << " + " << s.friction_stage.max_iterations;
   else
     out << ", cap " << s.coulomb.max_iterations;
-  out << ", tolerance "
-      << (s.scheme == sweep::Scheme::CatchingUp ? s.normal_stage.tolerance : s.coulomb.tolerance)
-      << "\n";
+  const bool catching_up = s.scheme == sweep::Scheme::CatchingUp;
+  out << ", tolerance " << (catching_up ? s.normal_stage.tolerance : s.coulomb.tolerance);
+  const bool nncg = catching_up ? s.normal_stage.acceleration == sweep::NlgsAcceleration::Nncg ||
+                                      s.friction_stage.acceleration == sweep::NlgsAcceleration::Nncg
+                                : s.coulomb.acceleration == sweep::NlgsAcceleration::Nncg;
+  if (nncg) out << ", NNCG sweeps";
+  out << "\n";
 }
 
 void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {

@@ -632,8 +632,7 @@ class SceneParser {
     }
   }
 
-  // acceleration: only scheme A's solver has one (NNCG); the stages of B refuse the key
-  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s, bool accelerable = false) {
+  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
     f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation", "shuffle",
                  "seed", "local_solver", "acceleration"});
     const long cap = f.integer("max_iterations", s.max_iterations);
@@ -657,8 +656,6 @@ class SceneParser {
       s.local_solver_3d = LocalSolver3d::Enumeration;
     else
       f["local_solver"].fail("must be alart-curnier or enumeration");
-    if (!accelerable && f.has("acceleration"))
-      f["acceleration"].fail("is only available for scheme.coulomb (scheme A)");
     const std::string acceleration = f.text("acceleration", nlgsAccelerationName(s.acceleration));
     if (acceleration == "none")
       s.acceleration = NlgsAcceleration::None;
@@ -704,7 +701,7 @@ class SceneParser {
       s.friction.threshold = FrictionThreshold::Metric;
     else
       f["threshold"].fail("must be physical or metric");
-    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, true);
+    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
     if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
     if (f.has("friction_stage"))
       s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage);
@@ -831,8 +828,7 @@ const char* shapeKeyword(ShapeType type) {
   }
 }
 
-void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s,
-                bool accelerable = false) {
+void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
   out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
@@ -840,8 +836,7 @@ void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s,
   out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
   out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
   out << YAML::Key << "seed" << YAML::Value << s.seed;
-  if (accelerable)
-    out << YAML::Key << "acceleration" << YAML::Value << nlgsAccelerationName(s.acceleration);
+  out << YAML::Key << "acceleration" << YAML::Value << nlgsAccelerationName(s.acceleration);
   out << YAML::EndMap;
 }
 
@@ -1029,7 +1024,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "normal_law" << YAML::Value << law;
   out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
   out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
-  emitSolver(out, "coulomb", s.coulomb, true);
+  emitSolver(out, "coulomb", s.coulomb);
   emitSolver(out, "normal_stage", s.normal_stage);
   emitSolver(out, "friction_stage", s.friction_stage);
   out << YAML::EndMap;

@@ -45,8 +45,10 @@ VARIANTS = {
     # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
     "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
     "rough-iqs": ("rough plate, IQS law", ["generators[0].plate=rough", "scheme.normal_law=iqs"]),
-    # Jean-Moreau's sweeps accelerated by NNCG (docs/powder_bed.md): same problem, same tolerance
+    # Jean-Moreau's sweeps with and without the NNCG momentum (docs/powder_bed.md); the
+    # examples use it since 2026-11-23, the studies before that date ran plain sweeps
     "nncg": ("Jean-Moreau, NNCG sweeps", ["scheme.coulomb.acceleration=nncg"]),
+    "plain": ("Jean-Moreau, plain sweeps", ["scheme.coulomb.acceleration=none"]),
     "rough-nncg": ("rough plate, NNCG sweeps",
                    ["generators[0].plate=rough", "scheme.coulomb.acceleration=nncg"]),
 }

@@ -2,6 +2,8 @@
 // candidate contacts on dense random packings.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "contact_test_scenes.hpp"
 
 namespace sweep {
@@ -114,6 +116,61 @@ TEST(Broadphase, LargeShapesAgainstParticles) {
     }
     EXPECT_GT(walls, 3) << "t = " << t;
   }
+}
+
+// A floor slab declared first is geometry 0, and its run of pairs holds every sphere resting
+// on it (hundreds, found in the grid's cell order): the run is sorted by std::sort instead of
+// insertion sort. The contacts still come out in key order, and the grid and FCL find the same
+// ones.
+TEST(Broadphase, AFloorUnderHundredsOfSpheresKeepsKeyOrder) {
+  std::mt19937 rng(11);
+  const int count = 400;
+  ModelBuilder builder("spheres on a floor");
+  for (int i = 0; i < count; ++i)
+    addFreeBody(builder, "p" + std::to_string(i), solidSphereInertia(1.0, 0.5));
+  const Model model = builder.build();
+  auto contactModel = [&](DetectionPathChoice path) {
+    ContactModelBuilder cb(model);
+    DetectionSettings settings;
+    settings.path = path;
+    cb.setSettings(settings);
+    // a box, not a half-space: the grid finds the grains under a box in cell order
+    Pose slab;
+    slab.translation = Vector3(10.5, 10.5, -0.5);
+    cb.addGeometry("floor", BodyRef::world(), slab, Shape::box(Vector3(30.0, 30.0, 1.0)));
+    for (int i = 0; i < count; ++i)
+      cb.addGeometry("p" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                     Shape::sphere(0.5));
+    return cb.build();
+  };
+  const ContactModel grid = contactModel(DetectionPathChoice::Automatic);
+  const ContactModel tree = contactModel(DetectionPathChoice::Fcl);
+  ASSERT_EQ(grid.path, DetectionPath::Analytic) << grid.path_reason;
+  // one layer on a 20 x 20 lattice, shuffled so that the pairs arrive out of order
+  std::vector<int> slot(count);
+  for (int i = 0; i < count; ++i) slot[i] = i;
+  std::shuffle(slot.begin(), slot.end(), rng);
+  std::uniform_real_distribution<double> lift(-0.01, 0.05);
+  VectorX q = model.neutralConfiguration();
+  for (int i = 0; i < count; ++i)
+    test::placeBody(model, q, i,
+                    Vector3(1.1 * (slot[i] % 20), 1.1 * (slot[i] / 20), 0.5 + lift(rng)),
+                    Quaternion::Identity());
+  Data data(model);
+  forwardKinematics(model, data, q);
+  ContactData cd_grid(model, grid), cd_tree(model, tree);
+  detectContacts(model, data, grid, cd_grid, 0.0, 0.1);
+  detectContacts(model, data, tree, cd_tree, 0.0, 0.1);
+  ASSERT_EQ(cd_grid.contacts.size(), cd_tree.contacts.size());
+  int on_floor = 0;
+  for (std::size_t k = 0; k < cd_grid.contacts.size(); ++k) {
+    EXPECT_EQ(cd_grid.contacts[k].key, cd_tree.contacts[k].key) << "contact " << k;
+    if (k > 0) {
+      EXPECT_TRUE(cd_grid.contacts[k - 1].key < cd_grid.contacts[k].key) << k;
+    }
+    on_floor += cd_grid.contacts[k].key.geometry_a == 0 ? 1 : 0;
+  }
+  EXPECT_EQ(on_floor, count);
 }
 
 }  // namespace

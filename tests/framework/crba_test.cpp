@@ -88,6 +88,23 @@ TEST(Crba, ConstantBlocksAreNeverRebuilt) {
   EXPECT_EQ(disk(0, 2), 0.0);
 }
 
+// The stored inverse of a constant 6 x 6 block (the box: a free rigid body) is its inverse;
+// blocks of other sizes or varying ones carry none.
+TEST(Crba, ConstantSixBySixBlocksCarryTheirInverse) {
+  const Model model = test::mixedBodies();
+  const Data data(model);
+  int with_inverse = 0;
+  for (std::size_t c = 0; c < model.components.size(); ++c) {
+    const bool expected = model.components[c].constant_mass && model.components[c].nv == 6;
+    EXPECT_EQ(data.has_constant_inverse6[c] != 0, expected) << c;
+    if (!data.has_constant_inverse6[c]) continue;
+    ++with_inverse;
+    const MatrixX product = data.constant_inverse6[c] * data.mass_blocks[c];
+    EXPECT_LT((product - MatrixX::Identity(6, 6)).norm(), 1e-12) << c;
+  }
+  EXPECT_EQ(with_inverse, 1);
+}
+
 // The skip changes nothing: with every block forced to be rebuilt, CRBA gives the blocks
 // the constant ones hold, at any configuration.
 TEST(Crba, SkippingConstantBlocksGivesTheRebuiltMatrix) {
