@@ -64,6 +64,8 @@ BodySpec box(const std::string& name, const Vector3& center, const Vector3& size
 void PowderBedParameters::validate() const {
   const std::string o = "powder_bed";
   require(count >= 1, o, "count", count, "must be >= 1");
+  require(copies_across >= 1 && copies_across <= 1000, o, "copies_across", copies_across,
+          "must be in [1, 1000]");
   if (sizes == Sizes::Discrete) {
     require(!diameters.empty() && diameters.size() == mass_fractions.size(), o, "mass_fractions",
             static_cast<double>(mass_fractions.size()), "must hold one fraction per diameter");
@@ -158,15 +160,15 @@ SceneSpec powderBed(const PowderBedParameters& p) {
   spec.detection.path = DetectionPathChoice::Analytic;
   spec.detection.periodic.axis = 2;
   spec.detection.periodic.low = 0.0;
-  spec.detection.periodic.high = p.width;
+  spec.detection.periodic.high = p.period();
 
   spec.bodies.push_back(plane("plate", Vector3::Zero(), Vector3::UnitY()));
   spec.bodies.push_back(plane("wall_start", Vector3::Zero(), Vector3::UnitX()));
   spec.bodies.push_back(plane("wall_end", Vector3(p.length, 0.0, 0.0), -Vector3::UnitX()));
   // blade and temporary walls span the period and a grain beyond each side, so that every
   // image of a grain meets them
-  const double span = p.width + 4.0 * largest;
-  const double z_mid = 0.5 * p.width;
+  const double span = p.period() + 4.0 * largest;
+  const double z_mid = 0.5 * p.period();
   const double spread_time = p.travel / p.speed;
   double front = 0.0;  // x of the face the heap rests against
   if (!p.roller) {
@@ -214,13 +216,14 @@ SceneSpec powderBed(const PowderBedParameters& p) {
     // frozen spheres of the mean number diameter, centres on the plate, one row past each
     // periodic boundary so that grains at the boundary meet them too
     const double d = std::accumulate(diameters.begin(), diameters.end(), 0.0) / diameters.size();
-    require(p.length / d * (p.width / d) < 1e6, "powder_bed", "length", p.length,
+    require(p.length / d * (p.period() / d) < 1e6, "powder_bed", "length", p.length,
             "gives a rough plate of more than 10^6 spheres");
+    // the z pitch is fitted to one copy's width, so that the copies' plates match
     const int across = std::max(1, static_cast<int>(std::floor(p.width / d)));
     const double pitch_z = p.width / across;
     int k = 0;
     for (double x = 0.5 * d; x < p.length; x += d)
-      for (int iz = -1; iz <= across; ++iz) {
+      for (int iz = -1; iz <= across * p.copies_across; ++iz) {
         BodySpec b;
         b.name = "plate_sphere" + std::to_string(k++);
         b.kind = BodySpec::Kind::Fixed;
@@ -242,19 +245,22 @@ SceneSpec powderBed(const PowderBedParameters& p) {
           "must hold one lattice pitch (and width too)");
   const double pitch_z = p.width / nz;
   const double base = p.rough_plate ? largest : 0.0;
-  std::mt19937 rng(p.seed + 1);
   const double jitter = 0.5 * (pitch - largest);
-  for (int i = 0; i < p.count; ++i) {
-    const int ix = i % nx, iz = (i / nx) % nz, iy = i / (nx * nz);
-    BodySpec b;
-    b.name = "p" + std::to_string(i);
-    b.shape = Shape::sphere(0.5 * diameters[i]);
-    b.material = "powder";
-    const Vector3 shake(jitter * (2.0 * unit(rng) - 1.0), 0.0, jitter * (2.0 * unit(rng) - 1.0));
-    b.pose =
-        at(Vector3(front + (ix + 0.5) * pitch, base + (iy + 0.5) * pitch, (iz + 0.5) * pitch_z) +
-           shake);
-    spec.bodies.push_back(b);
+  for (int copy = 0; copy < p.copies_across; ++copy) {
+    std::mt19937 rng(p.seed + 1);  // the same jitter in every copy
+    const double offset_z = copy * p.width;
+    for (int i = 0; i < p.count; ++i) {
+      const int ix = i % nx, iz = (i / nx) % nz, iy = i / (nx * nz);
+      BodySpec b;
+      b.name = "p" + std::to_string(static_cast<long>(copy) * p.count + i);
+      b.shape = Shape::sphere(0.5 * diameters[i]);
+      b.material = "powder";
+      const Vector3 shake(jitter * (2.0 * unit(rng) - 1.0), 0.0, jitter * (2.0 * unit(rng) - 1.0));
+      b.pose = at(Vector3(front + (ix + 0.5) * pitch, base + (iy + 0.5) * pitch,
+                          offset_z + (iz + 0.5) * pitch_z) +
+                  shake);
+      spec.bodies.push_back(b);
+    }
   }
   return spec;
 }
@@ -276,7 +282,7 @@ void LayerWindow::validate(const std::string& owner) const {
 LayerWindow defaultLayerWindow(const PowderBedParameters& p) {
   LayerWindow w;
   w.z_min = 0.0;
-  w.z_max = p.width;
+  w.z_max = p.period();
   w.gap = p.gap;
   w.plate = 0.0;
   return w;

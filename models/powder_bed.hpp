@@ -41,10 +41,16 @@ struct PowderBedParameters {
   double roller_radius = 0.25e-3;
   double roller_spin = 0.0;  // rad/s about +z; 0: counter-rotating at speed / radius
   bool rough_plate = false;  // a frozen layer of spheres (the mean number diameter) on the plate
+  // The bed repeated side by side across z: the period becomes width * copies_across and every
+  // copy holds the same `count` spheres (sizes, lattice and jitter), so that a state settled
+  // with one copy can be tiled across (scripts/tile_state.py) instead of settling a wide heap.
+  int copies_across = 1;
   std::uint32_t seed = 1;
 
   void validate() const;  // InputError naming the parameter
   double spreadEnd() const { return settle_time + travel / speed; }
+  double period() const { return width * copies_across; }  // the periodic width along z
+  long sphereCount() const { return static_cast<long>(count) * copies_across; }
 };
 
 // Where and how the spread layer is judged.

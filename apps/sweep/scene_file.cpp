@@ -468,6 +468,7 @@ class SceneParser {
                  "roller_radius",
                  "roller_spin",
                  "plate",
+                 "copies_across",
                  "seed"});
     if (out_.spec.dimension != 3) g["type"].fail("is a 3D generator");
     if (powder_layer_) g["type"].fail("a scene holds one powder bed");
@@ -475,6 +476,10 @@ class SceneParser {
     const long count = g.integer("count", p.count);
     if (count < 1 || count > max_count_) g["count"].fail("must be in [1, " + countLimit() + "]");
     p.count = static_cast<int>(count);
+    const long copies = g.integer("copies_across", 1);
+    if (copies < 1 || copies > max_count_ / count)
+      g["copies_across"].fail("must be >= 1, with count * copies_across <= " + countLimit());
+    p.copies_across = static_cast<int>(copies);
     if (g.has("sizes")) {
       const YamlField sizes = g["sizes"];
       sizes.requireMap();

@@ -259,6 +259,81 @@ class Restart(unittest.TestCase):
         self.assertIn("leaves no step after the saved state's t = 0.25", r.stderr)
 
 
+TILE_STATE = os.path.join(os.path.dirname(os.path.dirname(DATA)), "scripts", "tile_state.py")
+SMALL_BED = """dimension: 3
+gravity: [0, -9.81, 0]
+generators:
+  - {type: powder_bed, count: 60, width: 0.2e-3, length: 1.5e-3, travel: 0.5e-3,
+     heap_length: 0.3e-3, settle_time: 0.02}
+scheme: {name: moreau-jean, normal_law: vel}
+time: {step: 1e-5, end: 0.008}
+output: {layer: {x_min: 0.2e-3, x_max: 1.0e-3}}
+"""
+
+
+class TiledBed(unittest.TestCase):
+    """scripts/tile_state.py: a state of a one-copy powder bed, tiled, starts the bed of
+    copies_across: 2, which then moves as two copies of the one-copy bed."""
+
+    def test_two_copies_move_as_the_one_copy_bed(self):
+        folder = scratch_dir(self, "sweep_tile_")
+        scene = os.path.join(folder, "bed.yaml")
+        with open(scene, "w") as f:
+            f.write(SMALL_BED)
+        settled = os.path.join(folder, "settled")
+        r = sweep("run", scene, "--out", settled, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        state = os.path.join(settled, "final_state.csv")
+        tiled = os.path.join(folder, "tiled.csv")
+        r = subprocess.run(["/usr/bin/python3", TILE_STATE, state, "--copies", "2", "--width",
+                            "0.2e-3", "--out", tiled], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        runs = {}
+        for copies in (1, 2):
+            out = os.path.join(folder, f"copies{copies}")
+            r = sweep("run", scene, "--out", out, "--quiet", "--t-end", "0.0081",
+                      "--initial-state", state if copies == 1 else tiled,
+                      "--set", f"generators[0].copies_across={copies}")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            rows = read_csv(os.path.join(out, "stats.csv"))
+            with open(os.path.join(out, "final_state.csv")) as f:
+                q = [float(l.split(",")[2]) for l in f if l.startswith("q,")]
+            runs[copies] = (rows, q)
+        (rows1, q1), (rows2, q2) = runs[1], runs[2]
+        self.assertEqual(len(rows1), 10)
+        # every pair of the one-copy bed, those through its periodic boundary included, is
+        # two pairs of the two-copy bed on the first step
+        self.assertGreater(int(rows1[0]["n_active"]), 20)
+        self.assertEqual(int(rows2[0]["n_active"]), 2 * int(rows1[0]["n_active"]))
+        self.assertEqual(len(q2), 2 * len(q1))
+        worst = 0.0
+        for copy in (0, 1):
+            for i, value in enumerate(q1):
+                shift = copy * 0.2e-3 if i % 7 == 2 else 0.0
+                if i % 7 < 3:
+                    worst = max(worst, abs(q2[copy * len(q1) + i] - value - shift))
+        self.assertLess(worst, 1e-9)  # m; in 10 steps the grains move 3e-6
+
+    def test_bad_input_exits_2_naming_it(self):
+        folder = scratch_dir(self, "sweep_tile_bad_")
+        missing = os.path.join(folder, "missing.csv")
+        cases = [([missing, "--copies", "2", "--width", "1"], missing),
+                 ([missing, "--copies", "0", "--width", "1"], "--copies 0 must be >= 1"),
+                 ([missing, "--copies", "2", "--width", "nan"], "--width nan must be > 0")]
+        odd = os.path.join(folder, "odd.csv")
+        with open(odd, "w") as f:
+            f.write("vector,index,value\nt,0,0\n" + "".join(f"q,{i},0\n" for i in range(7)) +
+                    "".join(f"v,{i},0\n" for i in range(5)))
+        cases.append(([odd, "--copies", "2", "--width", "1"], "nq = 7, nv = 5"))
+        for args, message in cases:
+            out = os.path.join(folder, "out.csv")
+            r = subprocess.run(["/usr/bin/python3", TILE_STATE, *args, "--out", out],
+                               capture_output=True, text=True)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(message, r.stderr)
+            self.assertFalse(os.path.exists(out))
+
+
 class Interrupt(unittest.TestCase):
     def test_ctrl_c_and_sigterm_leave_valid_flagged_results(self):
         for sig in (signal.SIGINT, signal.SIGTERM):

@@ -367,6 +367,57 @@ TEST(PowderBed, SizesFollowTheMassFractions) {
   EXPECT_THROW(powderBed(p), InputError);
 }
 
+// copies_across: the same heap repeated across z, one width apart, in a period that many widths
+// wide, with the rough plate's rows continuing across the seams; one copy is the plain bed.
+TEST(PowderBed, CopiesAcrossRepeatTheHeapOneWidthApart) {
+  PowderBedParameters p;
+  p.count = 120;
+  p.rough_plate = true;
+  const SceneSpec one = powderBed(p);
+  p.copies_across = 3;
+  const SceneSpec three = powderBed(p);
+  EXPECT_DOUBLE_EQ(one.detection.periodic.high, p.width);
+  EXPECT_DOUBLE_EQ(three.detection.periodic.high, 3.0 * p.width);
+  EXPECT_DOUBLE_EQ(defaultLayerWindow(p).z_max, 3.0 * p.width);
+  auto grains = [](const SceneSpec& spec) {
+    std::vector<const BodySpec*> out;
+    for (const BodySpec& b : spec.bodies)
+      if (b.kind == BodySpec::Kind::Dynamic) out.push_back(&b);
+    return out;
+  };
+  auto plate_spheres = [](const SceneSpec& spec) {
+    std::vector<Vector3> out;
+    for (const BodySpec& b : spec.bodies)
+      if (b.kind == BodySpec::Kind::Fixed && b.shape.type == ShapeType::Sphere)
+        out.push_back(b.pose.translation);
+    return out;
+  };
+  const auto g1 = grains(one), g3 = grains(three);
+  ASSERT_EQ(g1.size(), 120u);
+  ASSERT_EQ(g3.size(), 360u);
+  for (int copy = 0; copy < 3; ++copy)
+    for (int i = 0; i < 120; ++i) {
+      const BodySpec& a = *g1[i];
+      const BodySpec& b = *g3[copy * 120 + i];
+      ASSERT_EQ(b.shape.radius, a.shape.radius) << copy << " " << i;
+      const Vector3 shift = b.pose.translation - a.pose.translation;
+      ASSERT_EQ(shift.x(), 0.0);
+      ASSERT_EQ(shift.y(), 0.0);
+      ASSERT_NEAR(shift.z(), copy * p.width, 1e-15);
+      ASSERT_EQ(b.name, "p" + std::to_string(copy * 120 + i));
+    }
+  // the rough plate: the one-copy rows (one past each boundary) continue at the same pitch
+  const auto r1 = plate_spheres(one), r3 = plate_spheres(three);
+  ASSERT_FALSE(r1.empty());
+  double z1_max = 0.0, z3_max = 0.0;
+  for (const Vector3& c : r1) z1_max = std::max(z1_max, c.z());
+  for (const Vector3& c : r3) z3_max = std::max(z3_max, c.z());
+  EXPECT_NEAR(z3_max - z1_max, 2.0 * p.width, 1e-12);
+  EXPECT_GT(r3.size(), 2 * r1.size());
+  p.copies_across = 0;
+  EXPECT_THROW(powderBed(p), InputError);
+}
+
 // A reduced pass (300 spheres, 1.2 mm of travel, Jean-Moreau): nothing is lost, nothing stays
 // above the gap behind the blade, and the layer is sparse.
 TEST(PowderBed, ReducedPassKeepsEveryGrainAndLeavesNothingAboveTheGap) {
