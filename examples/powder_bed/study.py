@@ -51,6 +51,12 @@ VARIANTS = {
     "plain": ("Jean-Moreau, plain sweeps", ["scheme.coulomb.acceleration=none"]),
     "rough-nncg": ("rough plate, NNCG sweeps",
                    ["generators[0].plate=rough", "scheme.coulomb.acceleration=nncg"]),
+    # run time against error: the stopping tolerance of Jean-Moreau's solve (pass no other
+    # tolerance after `--`, it would override these)
+    "tol1e-3": ("tolerance 1e-3", ["scheme.coulomb.tolerance=1e-3"]),
+    "tol3e-4": ("tolerance 3e-4", ["scheme.coulomb.tolerance=3e-4"]),
+    "tol1e-4": ("tolerance 1e-4", ["scheme.coulomb.tolerance=1e-4"]),
+    "tol1e-5": ("tolerance 1e-5", ["scheme.coulomb.tolerance=1e-5"]),
 }
 METRICS = ["packing_fraction", "effective_depth_over_gap", "solid_thickness", "coverage"]
 
@@ -72,7 +78,9 @@ def run(args, variant, seed):
     row = {"variant": variant, "seed": seed, "cpu_seconds": summary["cpu_seconds"],
            "cap_hit_steps": summary["iterations"]["cap_hit_steps"],
            "highest_top": layer["height"]["highest_top"],
-           "height_std": layer["height"]["std"], "cell_std": layer["cell_packing"]["std"]}
+           "height_std": layer["height"]["std"], "cell_std": layer["cell_packing"]["std"],
+           "sweeps_mean": summary["iterations"]["mean"],
+           "penetration_peak": summary["penetration"]["peak"]}
     for m in METRICS:
         row[m] = layer[m]
     # over the volume a rough plate's spheres leave free (runs older than the metric: blank)
@@ -110,8 +118,9 @@ def main():
         writer.writerows(rows)
     os.replace(os.path.join(args.out, "study.csv.partial"), os.path.join(args.out, "study.csv"))
 
-    lines = ["| variant | runs | packing fraction | depth / gap | coverage | CPU s |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| variant | runs | packing fraction | depth / gap | coverage | sweeps per step | "
+             "peak penetration (um) | CPU s |",
+             "|---|---|---|---|---|---|---|---|"]
     summary = {}
     for v in variants:
         mine = [r for r in rows if r["variant"] == v]
@@ -119,11 +128,13 @@ def main():
             values = [r[key] for r in mine]
             sd = statistics.stdev(values) if len(values) > 1 else 0.0
             return statistics.mean(values), sd
-        summary[v] = {k: stat(k) for k in METRICS + ["cpu_seconds"]}
-        p, d, c, t = (summary[v][k] for k in ["packing_fraction", "effective_depth_over_gap",
-                                              "coverage", "cpu_seconds"])
+        summary[v] = {k: stat(k) for k in METRICS + ["cpu_seconds", "sweeps_mean"]}
+        p, d, c, t, n = (summary[v][k] for k in ["packing_fraction", "effective_depth_over_gap",
+                                                 "coverage", "cpu_seconds", "sweeps_mean"])
+        pen = max(r["penetration_peak"] for r in mine) * 1e6
         lines.append(f"| {VARIANTS[v][0]} | {len(mine)} | {p[0]:.3f} +- {p[1]:.3f} | "
-                     f"{d[0]:.2f} +- {d[1]:.2f} | {c[0]:.2f} +- {c[1]:.2f} | {t[0]:.1f} |")
+                     f"{d[0]:.2f} +- {d[1]:.2f} | {c[0]:.2f} +- {c[1]:.2f} | {n[0]:.0f} | "
+                     f"{pen:.2f} | {t[0]:.1f} |")
     with open(os.path.join(args.out, "study.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
