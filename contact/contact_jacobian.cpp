@@ -6,7 +6,7 @@
 namespace sweep {
 
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
-                             ContactData& cdata, double t) {
+                             ContactData& cdata, double t, double max_gap) {
   ContactJacobian& J = cdata.jacobian;
   J.dimension = cmodel.dimension;
   const int n = static_cast<int>(cdata.contacts.size());
@@ -24,6 +24,11 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
   for (int c = 0; c < n; ++c) {
     const Contact& contact = cdata.contacts[c];
     J.begin[c] = static_cast<int>(J.dof.size());
+    if (contact.gap > max_gap) {
+      J.known_velocity[c] = Vector3::Zero();
+      if (J.rolling) J.known_spin[c] = Vector2::Zero();
+      continue;
+    }
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
     // rolling rows: the relative angular velocity about the tangents (3D) or the plane normal

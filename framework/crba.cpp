@@ -66,6 +66,15 @@ void applyMassInverse(const Model& model, const Data& data, const VectorX& rhs, 
   for (size_t c = 0; c < model.components.size(); ++c) {
     const Component& comp = model.components[c];
     if (comp.nv == 0) continue;
+    if (data.has_constant_inverse6[c]) {
+      // a free body's constant block: one 6x6 product instead of two triangular solves
+      const Vector6 rhs_block = out.segment<6>(comp.v_index);
+      if (data.constant_inverse6_diagonal[c])
+        out.segment<6>(comp.v_index) = data.constant_inverse6[c].diagonal().cwiseProduct(rhs_block);
+      else
+        out.segment<6>(comp.v_index).noalias() = data.constant_inverse6[c] * rhs_block;
+      continue;
+    }
     auto segment = out.segment(comp.v_index, comp.nv);
     data.mass_factors[c].solveInPlace(segment);
   }

@@ -22,12 +22,15 @@ Data::Data(const Model& model)
   computeMassBlocks(model, *this, model.neutralConfiguration(), /*include_constant=*/true);
   constant_inverse6.assign(model.components.size(), Matrix6::Zero());
   has_constant_inverse6.assign(model.components.size(), 0);
+  constant_inverse6_diagonal.assign(model.components.size(), 0);
   for (size_t c = 0; c < model.components.size(); ++c) {
     if (!model.components[c].constant_mass) continue;
     mass_factors[c].compute(mass_blocks[c]);
     if (model.components[c].nv == 6 && mass_factors[c].info() == Eigen::Success) {
       constant_inverse6[c] = mass_factors[c].solve(MatrixX::Identity(6, 6));
       has_constant_inverse6[c] = 1;
+      const Matrix6& inverse = constant_inverse6[c];
+      constant_inverse6_diagonal[c] = Matrix6(inverse.diagonal().asDiagonal()) == inverse;
     }
   }
 }

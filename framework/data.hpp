@@ -28,6 +28,7 @@ struct Data {
   // solve per contact (docs/powder_bed.md); empty matrices elsewhere
   std::vector<Matrix6> constant_inverse6;
   std::vector<char> has_constant_inverse6;
+  std::vector<char> constant_inverse6_diagonal;  // exactly: its off-diagonal entries are zero
 
   VectorX tau;  // generalized force out of rnea()
   VectorX ddq;  // generalized acceleration out of forwardDynamics()

@@ -52,6 +52,10 @@ const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, cons
   return rneaPasses(model, data, v, nullptr);
 }
 
+const VectorX& biasForcesFromKinematics(const Model& model, Data& data, const VectorX& v) {
+  return rneaPasses(model, data, v, nullptr);
+}
+
 void computeAllTerms(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
   forwardKinematics(model, data, q, v);
   rneaPasses(model, data, v, nullptr);

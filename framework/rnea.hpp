@@ -14,6 +14,8 @@ const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const Vect
 
 // data.tau = b(q, v) = Coriolis + centrifugal + gyroscopic + gravity generalized forces.
 const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, const VectorX& v);
+// The same on the kinematics data already holds (forwardKinematics(q, v) just called).
+const VectorX& biasForcesFromKinematics(const Model& model, Data& data, const VectorX& v);
 
 // What a time step needs at one configuration, with one kinematic pass: poses, velocities,
 // the q-dependent mass blocks (data.mass_blocks) and the bias b(q, v) (data.tau).

@@ -23,7 +23,8 @@ ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
     : component_rhs(model.components.size()),
       dof_component(model.nv, 0),
       component_parent(model.components.size()),
-      island_of_root(model.components.size()) {
+      island_of_root(model.components.size()),
+      minv_slot(model.nv, -1) {
   for (std::size_t i = 0; i < model.components.size(); ++i) {
     const Component& component = model.components[i];
     component_rhs[i] = MatrixX::Zero(component.nv, 3);
@@ -98,12 +99,24 @@ void ContactProblem::pack3d() {
       if (std::abs(W_r(0, 1)) <= 1e-12 * trace && std::abs(W_r(0, 0) - W_r(1, 1)) <= 1e-12 * trace)
         row.rolling_isotropic_inverse = 1.0 / W_r(0, 0);
       // H_r^T M^-1 H_c: how the contact's own impulse turns the rolling velocity
-      for (int k = begin[c]; k < begin[c + 1]; ++k)
-        for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m)
-          if (minv_dof[m] == dof[k]) row.rolling_coupling += rolling_h[k] * minv_h[m].transpose();
+      for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) {
+        if (minv_dof[m] >= static_cast<int>(pack_minv_slot.size()))
+          pack_minv_slot.resize(minv_dof[m] + 1, -1);
+        pack_minv_slot[minv_dof[m]] = m;
+      }
+      for (int k = begin[c]; k < begin[c + 1]; ++k) {
+        const int m =
+            dof[k] < static_cast<int>(pack_minv_slot.size()) ? pack_minv_slot[dof[k]] : -1;
+        if (m >= 0) row.rolling_coupling += rolling_h[k] * minv_h[m].transpose();
+      }
+      for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) pack_minv_slot[minv_dof[m]] = -1;
     }
     rows3d.push_back(row);
   }
+}
+
+double touchingGap(const ContactModel& cmodel) {
+  return 1e-9 * cmodel.margin_floor;
 }
 
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
@@ -153,27 +166,43 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     ws.touched.clear();
     for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
       const int comp = ws.dof_component[p.dof[k]];
-      const Component& component = model.components[comp];
-      if (std::find(ws.touched.begin(), ws.touched.end(), comp) == ws.touched.end()) {
-        ws.touched.push_back(comp);
-        ws.component_rhs[comp].setZero(component.nv, rhs_columns);
-      }
-      ws.component_rhs[comp].row(p.dof[k] - component.v_index).head<3>() = p.h[k].transpose();
-      if (p.rolling)
-        ws.component_rhs[comp].row(p.dof[k] - component.v_index).tail<2>() =
-            p.rolling_h[k].transpose();
+      if (std::find(ws.touched.begin(), ws.touched.end(), comp) != ws.touched.end()) continue;
+      ws.touched.push_back(comp);
+      if (!data.has_constant_inverse6[comp])
+        ws.component_rhs[comp].setZero(model.components[comp].nv, rhs_columns);
     }
     for (int comp : ws.touched) {
       const Component& component = model.components[comp];
-      MatrixX& solved = ws.component_rhs[comp];
       if (data.has_constant_inverse6[comp]) {
+        // a free body: fixed-size work, and a diagonal inverse (a ball, a body on its principal
+        // axes) scales rows instead of multiplying
         Eigen::Matrix<double, 6, 5> rhs = Eigen::Matrix<double, 6, 5>::Zero();
-        rhs.leftCols(rhs_columns) = solved;
-        const Eigen::Matrix<double, 6, 5> product = data.constant_inverse6[comp] * rhs;
-        solved = product.leftCols(rhs_columns);
-      } else {
-        data.mass_factors[comp].solveInPlace(solved);
+        for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+          if (ws.dof_component[p.dof[k]] != comp) continue;
+          const int i = p.dof[k] - component.v_index;
+          rhs.row(i).head<3>() = p.h[k].transpose();
+          if (p.rolling) rhs.row(i).tail<2>() = p.rolling_h[k].transpose();
+        }
+        Eigen::Matrix<double, 6, 5> solved;
+        if (data.constant_inverse6_diagonal[comp])
+          solved = data.constant_inverse6[comp].diagonal().asDiagonal() * rhs;
+        else
+          solved.noalias() = data.constant_inverse6[comp] * rhs;
+        for (int i = 0; i < 6; ++i) {
+          p.minv_dof.push_back(component.v_index + i);
+          p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
+          if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
+        }
+        continue;
       }
+      MatrixX& solved = ws.component_rhs[comp];
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+        if (ws.dof_component[p.dof[k]] != comp) continue;
+        const int i = p.dof[k] - component.v_index;
+        solved.row(i).head<3>() = p.h[k].transpose();
+        if (p.rolling) solved.row(i).tail<2>() = p.rolling_h[k].transpose();
+      }
+      data.mass_factors[comp].solveInPlace(solved);
       for (int i = 0; i < component.nv; ++i) {
         p.minv_dof.push_back(component.v_index + i);
         p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
@@ -189,10 +218,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     }
 
     // W_cc = H_c^T M^-1 H_c
+    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = m;
     Matrix3 W = Matrix3::Zero();
-    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
-      for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
-        if (p.minv_dof[m] == p.dof[k]) W += p.h[k] * p.minv_h[m].transpose();
+    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+      const int m = ws.minv_slot[p.dof[k]];
+      if (m >= 0) W += p.h[k] * p.minv_h[m].transpose();
+    }
     if (p.dimension == 2) {
       W.row(2).setZero();
       W.col(2).setZero();
@@ -223,9 +254,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.normal_bias.push_back(bias);
     if (p.rolling) {
       Matrix2 W_r = Matrix2::Zero();
-      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
-        for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
-          if (p.minv_dof[m] == p.dof[k]) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+        const int m = ws.minv_slot[p.dof[k]];
+        if (m >= 0) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
+      }
       if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
       // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
       if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
@@ -233,13 +265,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       p.rolling_known.push_back(known_spin);
       p.rolling_bound.push_back(rolling_bound);
     }
+    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = -1;
   };
 
-  // A contact that touches exactly (a block placed on a floor) has a computed gap of
-  // +-1e-17 m from round-off; with the bare test gap <= 0, one of a block's two corners would
-  // leave the index set at random and the block would rock. Gaps below 1e-9 of the margin
-  // floor (1e-12 of the smallest shape size) count as closed.
-  const double touching = 1e-9 * cmodel.margin_floor;
+  const double touching = touchingGap(cmodel);
   for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
     const Contact& contact = cdata.contacts[c];
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate

@@ -103,6 +103,9 @@ struct ContactProblem {
   std::vector<PackedRow3d> rows3d;
   std::vector<PackedEntry3d> h3d, minv3d;
   void pack3d();  // from the arrays above; call after changing them
+  // pack3d's lookup from a velocity index to the row's M^-1 H entry (-1 between rows), grown
+  // to the largest index seen
+  std::vector<int> pack_minv_slot;
 
   int size() const { return static_cast<int>(contact.size()); }
   int islandCount() const {
@@ -139,7 +142,16 @@ struct ContactProblemWorkspace {
   std::vector<int> row_component;      // islands: a component of each row
   std::vector<int> component_parent;   // islands: union-find over components
   std::vector<int> island_of_root;
+  // per velocity index: its M^-1 H entry in the row being finished, -1 outside it. W_cc and
+  // W_r then pair each H entry with its M^-1 H entry in one lookup instead of a double loop.
+  std::vector<int> minv_slot;
 };
+
+// A contact that touches exactly (a block placed on a floor) has a computed gap of +-1e-17 m
+// from round-off; with the bare test gap <= 0, one of a block's two corners would leave the
+// index set at random and the block would rock. Gaps up to this (1e-9 of the margin floor,
+// 1e-12 of the smallest shape size) count as closed for the VEL law.
+double touchingGap(const ContactModel& cmodel);
 
 // Builds the problem from cdata.contacts/jacobian (assembled at q_m) and the factored mass
 // blocks of data (at q_m). tau = h/2 is the time over which a gap closes (midpoint scheme).

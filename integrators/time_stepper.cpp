@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "framework/configuration.hpp"
@@ -128,8 +129,9 @@ void TimeStepper::freeVelocity() {
   const double t_m = t_ + 0.5 * settings_.h;
   tau_.setZero();
   if (forces_) forces_(t_m, q_m_, v_, tau_);
-  // crba skips constant mass blocks (particles); forwardDynamics factors the others
-  v_free_ = v_ + settings_.h * forwardDynamics(model_, data_, q_m_, v_, tau_);
+  // detect() left the kinematics of data at (q_m, v); constant mass blocks (particles) are
+  // skipped, the others rebuilt and factored
+  v_free_ = v_ + settings_.h * forwardDynamicsFromKinematics(model_, data_, v_, tau_);
   stats_.t_assemble = seconds(start);
 }
 
@@ -137,7 +139,11 @@ void TimeStepper::assemble() {
   const auto start = Clock::now();
   const double t_m = t_ + 0.5 * settings_.h;
   // forwardDynamics left the kinematics of data at q_m
-  assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m);
+  // VEL solves closed contacts only: the open candidates need no rows
+  const double max_gap = settings_.normal_law == NormalLaw::Vel
+                             ? touchingGap(cmodel_)
+                             : std::numeric_limits<double>::infinity();
+  assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m, max_gap);
   assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
                          q_m_, v_, problem_, problem_ws_, &v_free_);
   const int n = problem_.size();

@@ -53,6 +53,8 @@ VARIANTS = {
                    ["generators[0].plate=rough", "scheme.coulomb.acceleration=nncg"]),
     # run time against error: the stopping tolerance of Jean-Moreau's solve (pass no other
     # tolerance after `--`, it would override these)
+    "tol1e-2": ("tolerance 1e-2", ["scheme.coulomb.tolerance=1e-2"]),
+    "tol3e-3": ("tolerance 3e-3", ["scheme.coulomb.tolerance=3e-3"]),
     "tol1e-3": ("tolerance 1e-3", ["scheme.coulomb.tolerance=1e-3"]),
     "tol3e-4": ("tolerance 3e-4", ["scheme.coulomb.tolerance=3e-4"]),
     "tol1e-4": ("tolerance 1e-4", ["scheme.coulomb.tolerance=1e-4"]),

@@ -101,6 +101,29 @@ void expectRatesMatch(const Scene& s, const VectorX& v, double t, double margin,
       EXPECT_TRUE(moves_a_point) << "dof " << J.dof[k] << " of contact " << c;
     }
   }
+
+  // rows for closed contacts only (the VEL law's): an open contact gets no entries and no
+  // known velocity, a closed one the very entries it had
+  const double max_gap = 0.5 * (contacts.front().gap + contacts.back().gap);
+  assembleContactJacobian(model, data, s.cmodel, cdata, t, max_gap);
+  const ContactJacobian& closed = cdata.jacobian;
+  ASSERT_EQ(closed.size(), J.size());
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const int n = closed.begin[c + 1] - closed.begin[c];
+    if (contacts[c].gap > max_gap) {
+      EXPECT_EQ(n, 0) << "contact " << c;
+      EXPECT_EQ(closed.known_velocity[c], Vector3::Zero()) << "contact " << c;
+      continue;
+    }
+    ASSERT_EQ(n, J.begin[c + 1] - J.begin[c]) << "contact " << c;
+    EXPECT_EQ(closed.known_velocity[c], J.known_velocity[c]) << "contact " << c;
+    for (int k = 0; k < n; ++k) {
+      EXPECT_EQ(closed.dof[closed.begin[c] + k], J.dof[J.begin[c] + k]);
+      EXPECT_EQ(closed.normal[closed.begin[c] + k], J.normal[J.begin[c] + k]);
+      EXPECT_EQ(closed.tangent1[closed.begin[c] + k], J.tangent1[J.begin[c] + k]);
+      EXPECT_EQ(closed.tangent2[closed.begin[c] + k], J.tangent2[J.begin[c] + k]);
+    }
+  }
 }
 
 VectorX randomVelocity(int nv, unsigned seed) {

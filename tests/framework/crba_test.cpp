@@ -1,7 +1,9 @@
 #include "framework/crba.hpp"
 
 #include <gtest/gtest.h>
+
 #include <Eigen/Eigenvalues>
+#include <random>
 
 #include "framework/energy.hpp"
 #include "framework/kinematics.hpp"
@@ -103,6 +105,33 @@ TEST(Crba, ConstantSixBySixBlocksCarryTheirInverse) {
     EXPECT_LT((product - MatrixX::Identity(6, 6)).norm(), 1e-12) << c;
   }
   EXPECT_EQ(with_inverse, 1);
+}
+
+// A free body on its principal axes has a diagonal inverse and is flagged so (rows are then
+// scaled, not multiplied); one whose inertia is not on its axes is not. Both apply M^-1 as
+// the factored block does.
+TEST(Crba, DiagonalConstantInversesAreFlaggedAndApplied) {
+  ModelBuilder b("free bodies");
+  addFreeBody(b, "box", solidBoxInertia(2.0, Vector3(0.3, 0.2, 0.1)));
+  Inertia tilted = solidBoxInertia(1.0, Vector3(0.4, 0.1, 0.2));
+  const Matrix3 turn = Eigen::AngleAxisd(0.3, Vector3(1, 2, 3).normalized()).toRotationMatrix();
+  tilted.inertia_com = turn * tilted.inertia_com * turn.transpose();
+  addFreeBody(b, "tilted", tilted);
+  const Model model = b.build();
+  const Data data(model);
+  ASSERT_EQ(data.has_constant_inverse6, (std::vector<char>{1, 1}));
+  EXPECT_EQ(data.constant_inverse6_diagonal, (std::vector<char>{1, 0}));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  VectorX rhs(model.nv);
+  for (int i = 0; i < model.nv; ++i) rhs[i] = u(rng);
+  VectorX x;
+  applyMassInverse(model, data, rhs, x);
+  for (std::size_t c = 0; c < model.components.size(); ++c) {
+    const Component& component = model.components[c];
+    const VectorX expected = data.mass_factors[c].solve(rhs.segment(component.v_index, 6));
+    EXPECT_LT((x.segment(component.v_index, 6) - expected).norm(), 1e-12 * expected.norm()) << c;
+  }
 }
 
 // The skip changes nothing: with every block forced to be rebuilt, CRBA gives the blocks
