@@ -50,7 +50,6 @@ struct PowderBedParameters {
   void validate() const;  // InputError naming the parameter
   double spreadEnd() const { return settle_time + travel / speed; }
   double period() const { return width * copies_across; }  // the periodic width along z
-  long sphereCount() const { return static_cast<long>(count) * copies_across; }
 };
 
 // Where and how the spread layer is judged.
