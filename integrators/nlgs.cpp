@@ -819,6 +819,12 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
         const Vector2 f = lambda_T[c] - target;
         f2 += f.squaredNorm() + (bilateral ? drift * drift / (W(0, 0) * W(0, 0)) : 0.0);
         scale2 += std::max(lambda_T[c].squaredNorm(), (uT / A(0, 0)).squaredNorm());
+        // the held normal row's residual is measured against the impulse that row carries,
+        // as scheme A's natural map measures it against P_N
+        if (bilateral && options.residual_scale_with_normal) {
+          const double normal = lambda_N[c] + delta[c];
+          scale2 += normal * normal;
+        }
         continue;
       }
       const Vector2 dl = settings.relaxation * (target - lambda_T[c]);
@@ -852,7 +858,9 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       double change2 = 0.0, size2 = 0.0;
       sweep(false, change2, size2);
       island_stats.iterations = it + 1;
-      if (relative(change2, size2) < settings.tolerance) {
+      // the periodic check as in the other stages: with GLOBAL tangents in a hyperstatic heap
+      // the bilateral corrections drift along redundant rows while the friction law is met
+      if (residualDue(settings, it, change2, size2)) {
         island_stats.residual = sweep(true, change2, size2);
         if (island_stats.residual < settings.tolerance) break;
       }

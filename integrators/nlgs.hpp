@@ -107,6 +107,7 @@ const char* frictionThresholdName(FrictionThreshold threshold);
 struct FrictionStageOptions {
   TangentMode tangents = TangentMode::Global;
   FrictionThreshold threshold = FrictionThreshold::Physical;
+  bool residual_scale_with_normal = true;
 };
 
 // Stage 5b. rolling: as for solveCoulombNlgs, the bound taken from the stage-5a lambda_N.
