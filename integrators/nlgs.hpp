@@ -107,6 +107,9 @@ const char* frictionThresholdName(FrictionThreshold threshold);
 struct FrictionStageOptions {
   TangentMode tangents = TangentMode::Global;
   FrictionThreshold threshold = FrictionThreshold::Physical;
+  // GLOBAL's residual measures each held row's normal drift against the normal impulse the
+  // row carries; false: against the tangential impulses only (the rule before 2026-11-23,
+  // which swept rows without friction to the cap; docs/schemes.md)
   bool residual_scale_with_normal = true;
 };
 
