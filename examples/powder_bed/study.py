@@ -28,6 +28,14 @@ VARIANTS = {
     "slow": ("blade at 0.05 m/s", ["generators[0].speed=0.05", "time.end=0.052"]),
     "rough": ("rough plate", ["generators[0].plate=rough"]),
     "roller": ("counter-rotating roller", ["generators[0].spreader=roller"]),
+    # the roller's spin (its default is counter-rotating at speed / radius = 400 rad/s): not
+    # turning (1e-12: 0 picks the default), rolling forward, and counter-rotating 3x faster
+    "roller-still": ("roller, not turning",
+                     ["generators[0].spreader=roller", "generators[0].roller_spin=1e-12"]),
+    "roller-forward": ("roller, rolling forward (-400 rad/s)",
+                       ["generators[0].spreader=roller", "generators[0].roller_spin=-400"]),
+    "roller-fast": ("roller, counter-rotating at 1200 rad/s",
+                    ["generators[0].spreader=roller", "generators[0].roller_spin=1200"]),
     "h5e-6": ("h = 5e-6 s", ["time.step=5e-6"]),
     "h2e-5": ("h = 2e-5 s", ["time.step=2e-5"]),
     "h1e-6": ("h = 1e-6 s", ["time.step=1e-6"]),
