@@ -5,6 +5,7 @@
 #include <urdf_parser/urdf_parser.h>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -259,7 +260,48 @@ class Importer {
 // Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
 // claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
 // that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
+// TinyXML (2.6.2, Debian 12) steps over a UTF-8 character by its lead byte's length without
+// looking at the bytes it skips: a lead byte that promises more bytes than the text holds
+// makes it read past the terminator (found by the URDF fuzzer). XML is UTF-8 unless declared
+// otherwise, and URDF files are, so the text is checked byte by byte before any parser sees it.
+void requireUtf8(const std::string& xml, const std::string& source) {
+  const auto* bytes = reinterpret_cast<const unsigned char*>(xml.data());
+  const std::size_t size = xml.size();
+  std::size_t i = 0;
+  while (i < size) {
+    const unsigned char lead = bytes[i];
+    int length = 0;
+    unsigned minimum = 0;
+    if (lead < 0x80)
+      length = 1;
+    else if (lead >= 0xC2 && lead <= 0xDF)
+      length = 2, minimum = 0x80;
+    else if (lead >= 0xE0 && lead <= 0xEF)
+      length = 3, minimum = 0x800;
+    else if (lead >= 0xF0 && lead <= 0xF4)
+      length = 4, minimum = 0x10000;
+    bool valid = length > 0 && i + length <= size;
+    unsigned code = length <= 1 ? lead : lead & (0x3F >> (length - 1));
+    for (int k = 1; valid && k < length; ++k) {
+      valid = (bytes[i + k] & 0xC0) == 0x80;
+      code = (code << 6) | (bytes[i + k] & 0x3F);
+    }
+    // overlong forms, UTF-16 surrogates and code points past U+10FFFF are not UTF-8 either
+    valid = valid && (length == 1 || code >= minimum) && !(code >= 0xD800 && code <= 0xDFFF) &&
+            code <= 0x10FFFF;
+    if (!valid) {
+      const auto line = 1 + std::count(xml.begin(), xml.begin() + static_cast<long>(i), '\n');
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", lead);
+      throw InputError(source + ": line " + std::to_string(line) + ": not valid UTF-8 (byte " +
+                       hex + " at offset " + std::to_string(i) + "); URDF files are read as UTF-8");
+    }
+    i += static_cast<std::size_t>(length);
+  }
+}
+
 void precheckXml(const std::string& xml, const std::string& source) {
+  requireUtf8(xml, source);
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error())

@@ -145,10 +145,37 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"self_parent.urdf", "joint 'spin' closes a loop: link 'a' is its own ancestor"},
         BadUrdf{"zero_axis.urdf", "joint 'j': axis must have non-zero length"},
         BadUrdf{"format_in_number.urdf", "holds a '%' (first on line 8)"},
-        BadUrdf{"inertial_origin.urdf", "urdfdom reported an error and left part of the file out"}),
+        BadUrdf{"inertial_origin.urdf", "urdfdom reported an error and left part of the file out"},
+        // Latin-1 text: the parser would read it as UTF-8 (and TinyXML past the buffer's end)
+        BadUrdf{"invalid_utf8.urdf", "line 3: not valid UTF-8 (byte 0xE9 at offset 56)"}),
     [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
       return param_info.param.file.substr(0, param_info.param.file.find('.'));
     });
+
+// The URDF fuzzer's find: lead bytes that promise more bytes than the text holds made TinyXML
+// read past the end of the buffer (an AddressSanitizer heap-buffer-overflow). They are refused
+// before any parser sees them; valid multi-byte names still load.
+TEST(UrdfImport, TruncatedUtf8IsRefusedBeforeParsing) {
+  for (const std::string& tail :
+       {std::string("\xdc"), std::string(40, '\xff') + std::string(30, '\xdc'),
+        std::string("\xf0\x9f\x98"), std::string("\xed\xa0\x80"), std::string("\xc0\xaf")}) {
+    ModelBuilder b;
+    try {
+      addUrdfString(b, "<robot name='r'><link name='a" + tail, "tail.urdf");
+      FAIL() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("tail.urdf: line 1: not valid UTF-8"), std::string::npos)
+          << e.what();
+    }
+  }
+  ModelBuilder b;
+  addUrdfString(b,
+                "<robot name='r'><link name='caf\xc3\xa9 \xe2\x88\x86 \xf0\x9f\x98\x80'><inertial>"
+                "<mass value='1'/><inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/>"
+                "</inertial></link></robot>",
+                "utf8.urdf");
+  EXPECT_GE(b.build().bodyIndex("caf\xc3\xa9 \xe2\x88\x86 \xf0\x9f\x98\x80"), 0);
+}
 
 // A '%' is legal in names; only the parse's messages are left unformatted.
 TEST(UrdfImport, PercentInANameIsKept) {
