@@ -257,9 +257,6 @@ class Importer {
   UrdfOptions options_;
 };
 
-// Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
-// claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
-// that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
 // TinyXML (2.6.2, Debian 12) steps over a UTF-8 character by its lead byte's length without
 // looking at the bytes it skips: a lead byte that promises more bytes than the text holds
 // makes it read past the terminator (found by the URDF fuzzer). XML is UTF-8 unless declared
@@ -300,6 +297,9 @@ void requireUtf8(const std::string& xml, const std::string& source) {
   }
 }
 
+// Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
+// claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
+// that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
 void precheckXml(const std::string& xml, const std::string& source) {
   requireUtf8(xml, source);
   TiXmlDocument doc;
