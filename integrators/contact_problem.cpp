@@ -119,10 +119,17 @@ double touchingGap(const ContactModel& cmodel) {
   return 1e-9 * cmodel.margin_floor;
 }
 
+double normalBias(NormalLaw law, double restitution, double u_start, double gap, double tau) {
+  double bias = restitution * u_start;
+  if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;
+  if (law == NormalLaw::Pos) bias += gap / tau;
+  return bias;
+}
+
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& p, ContactProblemWorkspace& ws,
-                            const VectorX* v_free) {
+                            const VectorX* v_free, const std::vector<char>* deferred) {
   const ContactJacobian& J = cdata.jacobian;
   p.dimension = cmodel.dimension;
   p.contact.clear();
@@ -248,10 +255,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.restitution.push_back(e);
     const Vector3 u_start = p.localVelocity(pc, v_start);
     p.velocity_start.push_back(u_start);
-    double bias = e * u_start.x();
-    if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;
-    if (law == NormalLaw::Pos) bias += gap / tau;
-    p.normal_bias.push_back(bias);
+    p.normal_bias.push_back(normalBias(law, e, u_start.x(), gap, tau));
     if (p.rolling) {
       Matrix2 W_r = Matrix2::Zero();
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
@@ -273,6 +277,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     const Contact& contact = cdata.contacts[c];
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
     if (law == NormalLaw::Vel && contact.gap > touching) continue;
+    if (deferred != nullptr && (*deferred)[c]) continue;
     p.contact.push_back(c);
     for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
       p.dof.push_back(J.dof[k]);

@@ -160,9 +160,16 @@ double touchingGap(const ContactModel& cmodel);
 // step: gap <= 2 tau |joint rate|, the rate taken at the start of the step and, when given,
 // in v_free (a joint that gravity or the applied forces accelerate into its limit during the
 // step would otherwise pass it unseen).
+// deferred (when given, one flag per detected contact): contacts left out of this problem;
+// candidate screening (time_stepper.hpp) solves without them and checks them afterwards.
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
                             const VectorX& v_start, ContactProblem& problem,
-                            ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr);
+                            ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr,
+                            const std::vector<char>* deferred = nullptr);
+
+// The normal law's offset on U_N(k+1): U*_N = U_N(k+1) + normalBias(...) >= 0 for a contact
+// in the index set, with u_start = U_N(k) and the gap at q_m.
+double normalBias(NormalLaw law, double restitution, double u_start, double gap, double tau);
 
 }  // namespace sweep

@@ -1,5 +1,6 @@
 #include "integrators/time_stepper.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -33,6 +34,10 @@ void SchemeSettings::validate() const {
   coulomb.validate("moreau_jean.solver");
   normal_stage.validate("catching_up.normal_stage");
   friction_stage.validate("catching_up.friction_stage");
+  if (std::isnan(screening_gap)) throw InputError("scheme.screening_gap must be a number, got nan");
+  if (screening_rounds < 1)
+    throw InputError("scheme.screening_rounds must be >= 1, got " +
+                     std::to_string(screening_rounds));
 }
 
 namespace {
@@ -76,6 +81,7 @@ void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
   previous_rolling_.clear();
   limit_impulse_.assign(model_.limits.size(), 0.0);
   limit_staged_.assign(model_.limits.size(), StagedImpulse{});
+  contact_dv_.setZero(model_.nv);
   cdata_ = ContactData(model_, cmodel_);
 }
 
@@ -90,11 +96,8 @@ const StepStats& TimeStepper::step() {
   detect();        // 2
   freeVelocity();  // 4 (M(q_m) is factored here; stage 3 needs it)
   assemble();      // 3
-  if (settings_.scheme == Scheme::MoreauJean)
-    solveMoreauJean();  // 5 (A)
-  else
-    solveCatchingUp();  // 5 (B)
-  update();             // 6
+  solve();         // 5
+  update();        // 6
   diagnose();
   // periodic boundaries: bodies that left the cell re-enter at the other side; after the
   // diagnostics, which evaluate the gaps of this step's contacts on this step's images
@@ -120,6 +123,7 @@ void TimeStepper::detect() {
     std::swap(rolling_, previous_rolling_);
     rolling_.assign(cdata_.contacts.size(), Vector2::Zero());
   }
+  solved_.assign(cdata_.contacts.size(), 0);
   stats_.candidates = static_cast<int>(cdata_.contacts.size());
   stats_.t_detect = seconds(start);
 }
@@ -144,13 +148,56 @@ void TimeStepper::assemble() {
                              ? touchingGap(cmodel_)
                              : std::numeric_limits<double>::infinity();
   assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m, max_gap);
+  stats_.t_assemble += seconds(start);
+  if (!settings_.screening) {
+    deferred_.clear();
+    assembleProblem();
+    return;
+  }
+  // Round one leaves out the candidates that did not carry an impulse at the last step, are
+  // farther than `near`, and are not predicted to break their law at the velocity of the
+  // step's start, the contact-free one or the contact-free one plus the last step's contact
+  // push. A powder heap under IQS at h = 1e-4 has 7 to 10 candidates per closed contact; of
+  // the candidates the solve then admits, 99 % are within 1.5 um, a tenth of the smallest
+  // radius (docs/powder_bed.md).
+  const ContactJacobian& J = cdata_.jacobian;
+  const double tau = 0.5 * settings_.h, slack = cmodel_.margin_floor;
+  const double touching = touchingGap(cmodel_);
+  deferred_.assign(cdata_.contacts.size(), 0);
+  if (contact_dv_.size() != model_.nv) contact_dv_ = VectorX::Zero(model_.nv);
+  v_predicted_ = v_free_ + contact_dv_;  // the last step's contact push, repeated
+  const double factor = cmodel_.settings.speed_factor;
+  const double near =
+      settings_.screening_gap >= 0.0 ? settings_.screening_gap : 100.0 * cmodel_.margin_floor;
+  for (int id = 0; id < static_cast<int>(cdata_.contacts.size()); ++id) {
+    const Contact& contact = cdata_.contacts[id];
+    if (settings_.normal_law == NormalLaw::Vel && contact.gap > touching) continue;
+    const int previous = contact.previous;
+    if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()) &&
+        previous_impulse_[previous].x() > 0.0)
+      continue;
+    const double u_start = J.relativeVelocity(id, v_).x();
+    const double u_free = J.relativeVelocity(id, v_free_).x();
+    const double u_pushed = J.relativeVelocity(id, v_predicted_).x();
+    const double bias =
+        normalBias(settings_.normal_law, contact.restitution, u_start, contact.gap, tau);
+    const double closing = std::min({u_start, u_free, u_pushed, 0.0});
+    deferred_[id] = contact.gap > near && tau * (bias + factor * closing) > slack;
+  }
+  assembleProblem();
+}
+
+void TimeStepper::assembleProblem() {
+  const auto start = Clock::now();
   assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
-                         q_m_, v_, problem_, problem_ws_, &v_free_);
+                         q_m_, v_, problem_, problem_ws_, &v_free_,
+                         deferred_.empty() ? nullptr : &deferred_);
   const int n = problem_.size();
   stats_.active = n;
   stats_.islands = problem_.islandCount();
   nlgs_ws_.prepare(n, model_.nv);
-  // warm start from the previous step's impulses of the same contacts
+  // warm start from this step's last solve, or else the previous step's impulses of the same
+  // contacts
   P_.assign(n, Vector3::Zero());
   R_.assign(problem_.rolling ? n : 0, Vector2::Zero());
   for (int c = 0; c < n; ++c) {
@@ -159,14 +206,87 @@ void TimeStepper::assemble() {
       P_[c].x() = limit_impulse_[-1 - id];
       continue;
     }
+    if (solved_[id]) {
+      P_[c] = impulse_[id];
+      if (problem_.rolling) R_[c] = rolling_[id];
+      continue;
+    }
     const int previous = cdata_.contacts[id].previous;
     if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()))
       P_[c] = previous_impulse_[previous];
     if (problem_.rolling && previous >= 0 && previous < static_cast<int>(previous_rolling_.size()))
       R_[c] = previous_rolling_[previous];
   }
-  std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
   stats_.t_assemble += seconds(start);
+}
+
+void TimeStepper::solve() {
+  stats_.solves = 1;
+  stats_.deferred = 0;
+  if (!settings_.screening) {
+    settings_.scheme == Scheme::MoreauJean ? solveMoreauJean() : solveCatchingUp();
+    keepImpulses();
+    return;
+  }
+  v_contact_free_ = v_free_;
+  int iterations1 = 0, iterations2 = 0;
+  long updates = 0;
+  double t_solve = 0.0;
+  for (;;) {
+    settings_.scheme == Scheme::MoreauJean ? solveMoreauJean() : solveCatchingUp();
+    keepImpulses();
+    iterations1 += stats_.iterations_stage1;
+    iterations2 += stats_.iterations_stage2;
+    updates += stats_.updates;
+    t_solve += stats_.t_solve;
+    const int admitted = admitViolators();
+    if (admitted == 0) break;
+    if (++stats_.solves > settings_.screening_rounds)  // the last round: every candidate
+      std::fill(deferred_.begin(), deferred_.end(), 0);
+    v_free_ = v_contact_free_;
+    assembleProblem();
+  }
+  contact_dv_ = v_free_ - v_contact_free_;
+  stats_.iterations_stage1 = iterations1;
+  stats_.iterations_stage2 = iterations2;
+  stats_.updates = updates;
+  stats_.t_solve = t_solve;
+  stats_.deferred = static_cast<int>(std::count(deferred_.begin(), deferred_.end(), 1));
+}
+
+int TimeStepper::admitViolators() {
+  const ContactJacobian& J = cdata_.jacobian;
+  // round-off only: a contact let through would differ from the unscreened solve
+  const double tau = 0.5 * settings_.h, slack = touchingGap(cmodel_);
+  int admitted = 0;
+  for (int id = 0; id < static_cast<int>(deferred_.size()); ++id) {
+    if (!deferred_[id]) continue;
+    const Contact& contact = cdata_.contacts[id];
+    const double u_start = J.relativeVelocity(id, v_).x();
+    const double u_end = J.relativeVelocity(id, v_free_).x();
+    const double bias =
+        normalBias(settings_.normal_law, contact.restitution, u_start, contact.gap, tau);
+    if (tau * (u_end + bias) < -slack) {
+      deferred_[id] = 0;
+      ++admitted;
+    }
+  }
+  return admitted;
+}
+
+void TimeStepper::keepImpulses() {
+  // a joint limit out of this solve carries nothing (limits are never deferred)
+  std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
+  for (int c = 0; c < problem_.size(); ++c) {
+    const int id = problem_.contact[c];
+    if (id < 0) {
+      limit_impulse_[-1 - id] = P_[c].x();
+      continue;
+    }
+    impulse_[id] = P_[c];
+    if (problem_.rolling) rolling_[id] = R_[c];
+    solved_[id] = 1;
+  }
 }
 
 double TimeStepper::metricKinetic(const VectorX& v) {
@@ -197,6 +317,7 @@ void TimeStepper::solveMoreauJean() {
 const TimeStepper::StagedImpulse* TimeStepper::previousStaged(int c) const {
   const int id = problem_.contact[c];
   if (id < 0) return &limit_staged_[-1 - id];
+  if (solved_[id]) return &staged_[id];  // an earlier round of candidate screening
   const int previous = cdata_.contacts[id].previous;
   if (previous < 0 || previous >= static_cast<int>(previous_staged_.size())) return nullptr;
   return &previous_staged_[previous];
@@ -267,17 +388,9 @@ void TimeStepper::update() {
     const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + problem_.localVelocity(c, v_free_));
     stats_.work_normal += P_[c].x() * u_mean.x();
     stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
-    const int id = problem_.contact[c];
-    if (id < 0) {
-      limit_impulse_[-1 - id] = P_[c].x();
-      continue;
-    }
-    impulse_[id] = P_[c];
-    if (problem_.rolling) {
-      rolling_[id] = R_[c];
+    if (problem_.contact[c] >= 0 && problem_.rolling)
       stats_.work_tangent +=
           R_[c].dot(0.5 * (problem_.rollingVelocity(c, v_) + problem_.rollingVelocity(c, v_free_)));
-    }
   }
   v_ = v_free_;
   integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);

@@ -44,6 +44,18 @@ struct SchemeSettings {
   NlgsSettings normal_stage{1500};    // scheme B, 5a
   NlgsSettings friction_stage{1500};  // scheme B, 5b
   FrictionStageOptions friction;      // scheme B: tangents, threshold
+  // Candidate screening (both schemes): a candidate that is not predicted to close within
+  // the step and carried no impulse at the last one is left out of the solve; after it, each
+  // one left out is checked against its law (U*_N(k+1) >= 0 with zero impulse, up to
+  // margin_floor / tau) and the violators join for another solve, warm-started. After
+  // screening_rounds rounds every candidate joins. The answer is a solution of the whole
+  // candidate problem: a contact with zero impulse whose law holds is a solution of its row.
+  // Pays where the laws with gap terms (IQS, POS) carry many open candidates.
+  // screening_gap: candidates closer than this always join the first solve (< 0: 100 margin
+  // floors, a tenth of the smallest moving shape's size with the default floor).
+  bool screening = false;
+  int screening_rounds = 8;
+  double screening_gap = -1.0;
 
   void validate() const;
 };
@@ -73,6 +85,8 @@ struct StepStats {
   double work_normal = 0.0;   // sum_c P_N (U_N(k) + U_N(k+1)) / 2
   double work_tangent = 0.0;  // sum_c P_T . (U_T(k) + U_T(k+1)) / 2
   double t_detect = 0.0, t_assemble = 0.0, t_solve = 0.0, t_update = 0.0;  // seconds
+  int solves = 1;    // solves of the step: 1, or the rounds of candidate screening
+  int deferred = 0;  // candidates left out of the last solve by screening
 };
 
 // Applied generalized forces tau(t, q, v) besides gravity (which the Model carries).
@@ -106,10 +120,15 @@ class TimeStepper {
   void midpoint();         // 1
   void detect();           // 2
   void freeVelocity();     // 4
-  void assemble();         // 3
+  void assemble();         // 3: Jacobian, then the problem
+  void assembleProblem();  // 3: the problem of the contacts not deferred, warm-started
+  void solve();            // 5, with candidate screening when set
   void solveMoreauJean();  // 5, scheme A
   void solveCatchingUp();  // 5, scheme B
-  void update();           // 6
+  void keepImpulses();     // the solve's impulses by contact: warm start of the next solve
+  // contacts left out that break their law at the solve's velocities join (returns how many)
+  int admitViolators();
+  void update();  // 6
   void diagnose();
 
   const Model& model_;
@@ -145,6 +164,11 @@ class TimeStepper {
   std::vector<double> lambda_N_;
   std::vector<Vector2> lambda_T_;
   std::vector<double> end_gap_;
+  // candidate screening, aligned with contacts: left out of the solve, solved this step
+  std::vector<char> deferred_, solved_;
+  VectorX v_contact_free_;
+  VectorX contact_dv_;  // the contacts' velocity change in the last step (screening)
+  VectorX v_predicted_;
   VectorX mass_times_v_;
   double metricKinetic(const VectorX& v);  // 1/2 v^T M(q_m) v
 };

@@ -64,6 +64,9 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
       << s.penetration_time_integral << " m s, peak " << s.penetration_peak << " m\n"
       << "  active contacts: mean " << s.mean_active << ", max " << s.max_active << "\n"
       << "  energy: " << s.energy_initial << " J -> " << s.energy_final << " J\n";
+  if (s.max_solves > 1)
+    out << "  candidate screening: " << s.mean_candidates << " candidates, " << s.mean_solves
+        << " solves per step (max " << s.max_solves << ")\n";
   if (s.updates > 0)
     out << "  solver: " << s.updates << " local solves, "
         << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";

@@ -259,7 +259,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   total.reserve(steps);
   stage1.reserve(steps);
   stage2.reserve(steps);
-  double active_sum = 0.0;
+  double active_sum = 0.0, candidate_sum = 0.0, solves_sum = 0.0;
   double next_snapshot = 0.0;
   if (vtk) {
     vtk->write(stepper);
@@ -284,6 +284,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     stage2.push_back(s.iterations_stage2);
     summary.cap_hit_steps += s.cap_hit ? 1 : 0;
     active_sum += s.active;
+    candidate_sum += s.candidates;
+    solves_sum += s.solves;
+    summary.max_solves = std::max(summary.max_solves, s.solves);
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;
@@ -313,6 +316,10 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   summary.energy_final = stepper.energy();
   summary.mean_active = summary.steps > 0 ? active_sum / static_cast<double>(summary.steps) : 0.0;
+  if (summary.steps > 0) {
+    summary.mean_candidates = candidate_sum / static_cast<double>(summary.steps);
+    summary.mean_solves = solves_sum / static_cast<double>(summary.steps);
+  }
   if (options.keep_iterations) summary.iterations_per_step = total;
   summary.iterations = distributionOf(std::move(total));
   summary.iterations_stage1 = distributionOf(std::move(stage1));
@@ -374,7 +381,10 @@ void writeSummaryJson(const RunSummary& s, const std::string& path) {
     << ",\n                 \"stage1\": " << distribution(s.iterations_stage1)
     << ",\n                 \"stage2\": " << distribution(s.iterations_stage2) << "},\n"
     << "  \"contacts\": {\"mean_active\": " << exactNumber(s.mean_active)
-    << ", \"max_active\": " << s.max_active << "},\n"
+    << ", \"max_active\": " << s.max_active
+    << ", \"mean_candidates\": " << exactNumber(s.mean_candidates)
+    << ", \"mean_solves\": " << exactNumber(s.mean_solves) << ", \"max_solves\": " << s.max_solves
+    << "},\n"
     << "  \"solver\": {\"updates\": " << s.updates
     << ", \"solve_seconds\": " << exactNumber(s.solve_seconds) << ", \"ns_per_update\": "
     << exactNumber(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0)

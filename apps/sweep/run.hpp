@@ -51,6 +51,10 @@ struct RunSummary {
   long cap_hit_steps = 0;
   double mean_active = 0.0;
   int max_active = 0;
+  double mean_candidates = 0.0;
+  // solves per step: 1, or the rounds of candidate screening (scheme.screening)
+  double mean_solves = 1.0;
+  int max_solves = 1;
   long updates = 0;            // local solves, all steps
   double solve_seconds = 0.0;  // time in stage 5, all steps
   double energy_initial = 0.0, energy_final = 0.0;

@@ -673,7 +673,7 @@ class SceneParser {
 
   void parseScheme(const YamlField& f) {
     f.allowOnly({"name", "normal_law", "tangents", "threshold", "coulomb", "normal_stage",
-                 "friction_stage"});
+                 "friction_stage", "screening", "screening_rounds", "screening_gap"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -706,6 +706,11 @@ class SceneParser {
       s.friction.threshold = FrictionThreshold::Metric;
     else
       f["threshold"].fail("must be physical or metric");
+    s.screening = f.boolean("screening", s.screening);
+    const long rounds = f.integer("screening_rounds", s.screening_rounds);
+    if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
+    s.screening_rounds = static_cast<int>(rounds);
+    if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
     if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
     if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
     if (f.has("friction_stage"))
@@ -1032,6 +1037,9 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   emitSolver(out, "coulomb", s.coulomb);
   emitSolver(out, "normal_stage", s.normal_stage);
   emitSolver(out, "friction_stage", s.friction_stage);
+  out << YAML::Key << "screening" << YAML::Value << s.screening;
+  out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
+  if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
       << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;

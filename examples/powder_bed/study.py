@@ -36,6 +36,26 @@ VARIANTS = {
                        ["generators[0].spreader=roller", "generators[0].roller_spin=-400"]),
     "roller-fast": ("roller, counter-rotating at 1200 rad/s",
                     ["generators[0].spreader=roller", "generators[0].roller_spin=1200"]),
+    # is the roller denser on the full scene because its heap stands above the roller's
+    # axis? The reduced scene's 800 grains on a 0.275 mm footprint stand as high as the full
+    # heap (about 0.4 mm); a roller of radius 30 um has its axis below the reduced heap's top
+    "tall": ("blade, tall heap", ["generators[0].heap_length=0.275e-3"]),
+    "roller-tall": ("counter-rotating roller, tall heap",
+                    ["generators[0].spreader=roller", "generators[0].heap_length=0.275e-3"]),
+    "roller-small": ("counter-rotating roller, radius 30 um",
+                     ["generators[0].spreader=roller", "generators[0].roller_radius=0.03e-3"]),
+    # IQS at h = 1e-4 with and without candidate screening (scheme.screening), and screened
+    # at looser tolerances: the whole-candidate residual counts the open candidates in its
+    # scale, the screened one does not (docs/powder_bed.md, "Candidate screening")
+    "iqs-h1e-4": ("IQS, h = 1e-4", ["scheme.normal_law=iqs", "time.step=1e-4"]),
+    "screened": ("IQS, h = 1e-4, screened",
+                 ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true"]),
+    "screened-3e-3": ("IQS, h = 1e-4, screened, tolerance 3e-3",
+                      ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+                       "scheme.coulomb.tolerance=3e-3"]),
+    "screened-1e-2": ("IQS, h = 1e-4, screened, tolerance 1e-2",
+                      ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+                       "scheme.coulomb.tolerance=1e-2"]),
     "h5e-6": ("h = 5e-6 s", ["time.step=5e-6"]),
     "h2e-5": ("h = 2e-5 s", ["time.step=2e-5"]),
     "h1e-6": ("h = 1e-6 s", ["time.step=1e-6"]),

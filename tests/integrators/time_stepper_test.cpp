@@ -508,6 +508,76 @@ TEST(SchemesAgree, FrictionlessPileSkipsTheFrictionStage) {
   EXPECT_LT((end[0] - end[1]).norm(), 1e-8 * end[0].norm());
 }
 
+// Candidate screening solves without the open candidates that are not predicted to close, then
+// admits those that break their law. Its answer solves the whole candidate problem: on a
+// frictionless pile (unique velocities) each step matches the unscreened one from the same
+// state, and every candidate left out keeps its law at the end of the step.
+TEST_P(BothSchemes, CandidateScreeningSolvesTheWholeCandidateProblem) {
+  GranularBoxParameters parameters;
+  parameters.count = 60;
+  parameters.friction = 0.0;
+  const Scene scene = granularBox(parameters);
+  const double h = 1e-3;  // large steps: many open candidates within the detection margin
+  SchemeSettings plain = settings(h);
+  plain.normal_law = NormalLaw::Iqs;
+  plain.coulomb.max_iterations = plain.normal_stage.max_iterations = 100000;
+  SchemeSettings screened = plain;
+  screened.screening = true;
+  screened.screening_gap = 0.0;  // the default takes every near candidate at once: no rounds
+  TimeStepper reference(scene.model, scene.cmodel, plain);
+  reference.reset(0.0, scene.q0, scene.v0);
+  TimeStepper stepper(scene.model, scene.cmodel, screened);
+  int deferring_steps = 0, resolved_steps = 0;
+  for (int k = 0; k < 120; ++k) {
+    stepper.reset(reference.time(), reference.q(), reference.v());
+    const StepStats& r = reference.step();
+    const StepStats& s = stepper.step();
+    ASSERT_EQ(s.candidates, r.candidates);
+    ASSERT_EQ(r.solves, 1);
+    EXPECT_LE(s.active + s.deferred, s.candidates);
+    deferring_steps += s.deferred > 0 ? 1 : 0;
+    resolved_steps += s.solves > 1 ? 1 : 0;
+    EXPECT_LE((stepper.v() - reference.v()).norm(), 1e-7 * (1.0 + reference.v().norm()))
+        << "step " << k;
+    // every candidate: U_N(k+1) + [g]_+ / tau >= 0 (e = 0), up to the screening slack
+    const ContactData& cdata = stepper.contactData();
+    const double tau = 0.5 * h, slack = touchingGap(scene.cmodel);
+    for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
+      const double u = cdata.jacobian.relativeVelocity(c, stepper.v()).x();
+      EXPECT_GE(tau * u + std::max(cdata.contacts[c].gap, 0.0), -slack - 1e-12) << "step " << k;
+    }
+  }
+  // the test means something only if screening left candidates out and had to re-solve
+  EXPECT_GT(deferring_steps, 60);
+  EXPECT_GT(resolved_steps, 0);
+}
+
+// After screening_rounds solves every candidate joins: nothing is left out of the last one.
+TEST(CandidateScreening, EveryCandidateJoinsAfterTheLastRound) {
+  GranularBoxParameters parameters;
+  parameters.count = 60;
+  const Scene scene = granularBox(parameters);
+  SchemeSettings s;
+  s.h = 1e-3;
+  s.normal_law = NormalLaw::Iqs;
+  s.screening = true;
+  s.screening_rounds = 1;
+  s.screening_gap = 0.0;
+  TimeStepper stepper(scene.model, scene.cmodel, s);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  int capped = 0;
+  for (int k = 0; k < 120; ++k) {
+    const StepStats& st = stepper.step();
+    EXPECT_LE(st.solves, 2);
+    if (st.solves == 2) {
+      EXPECT_EQ(st.deferred, 0);
+      EXPECT_EQ(st.active, st.candidates);
+      ++capped;
+    }
+  }
+  EXPECT_GT(capped, 0);
+}
+
 // Random contact order is seeded: the same run twice gives the same bits.
 TEST(Determinism, ShuffledSweepsRepeat) {
   GranularBoxParameters parameters;
