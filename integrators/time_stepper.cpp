@@ -164,6 +164,7 @@ void TimeStepper::assemble() {
   const double tau = 0.5 * settings_.h, slack = cmodel_.margin_floor;
   const double touching = touchingGap(cmodel_);
   deferred_.assign(cdata_.contacts.size(), 0);
+  screening_bias_.resize(cdata_.contacts.size());
   if (contact_dv_.size() != model_.nv) contact_dv_ = VectorX::Zero(model_.nv);
   v_predicted_ = v_free_ + contact_dv_;  // the last step's contact push, repeated
   const double factor = cmodel_.settings.speed_factor;
@@ -172,6 +173,7 @@ void TimeStepper::assemble() {
   for (int id = 0; id < static_cast<int>(cdata_.contacts.size()); ++id) {
     const Contact& contact = cdata_.contacts[id];
     if (settings_.normal_law == NormalLaw::Vel && contact.gap > touching) continue;
+    if (contact.gap <= near) continue;
     const int previous = contact.previous;
     if (previous >= 0 && previous < static_cast<int>(previous_impulse_.size()) &&
         previous_impulse_[previous].x() > 0.0)
@@ -182,7 +184,8 @@ void TimeStepper::assemble() {
     const double bias =
         normalBias(settings_.normal_law, contact.restitution, u_start, contact.gap, tau);
     const double closing = std::min({u_start, u_free, u_pushed, 0.0});
-    deferred_[id] = contact.gap > near && tau * (bias + factor * closing) > slack;
+    deferred_[id] = tau * (bias + factor * closing) > slack;
+    screening_bias_[id] = bias;
   }
   assembleProblem();
 }
@@ -261,12 +264,7 @@ int TimeStepper::admitViolators() {
   int admitted = 0;
   for (int id = 0; id < static_cast<int>(deferred_.size()); ++id) {
     if (!deferred_[id]) continue;
-    const Contact& contact = cdata_.contacts[id];
-    const double u_start = J.relativeVelocity(id, v_).x();
-    const double u_end = J.relativeVelocity(id, v_free_).x();
-    const double bias =
-        normalBias(settings_.normal_law, contact.restitution, u_start, contact.gap, tau);
-    if (tau * (u_end + bias) < -slack) {
+    if (tau * (J.relativeVelocity(id, v_free_).x() + screening_bias_[id]) < -slack) {
       deferred_[id] = 0;
       ++admitted;
     }

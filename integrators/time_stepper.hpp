@@ -166,6 +166,7 @@ class TimeStepper {
   std::vector<double> end_gap_;
   // candidate screening, aligned with contacts: left out of the solve, solved this step
   std::vector<char> deferred_, solved_;
+  std::vector<double> screening_bias_;  // the law's bias of each contact left out
   VectorX v_contact_free_;
   VectorX contact_dv_;  // the contacts' velocity change in the last step (screening)
   VectorX v_predicted_;
