@@ -43,18 +43,11 @@ struct Counted {
 // the counter armed.
 TEST(NoAllocation, InsideEverySolver) {
   for (bool planar : {true, false}) {
-    GranularBoxParameters parameters;
-    parameters.count = 120;
-    parameters.planar = planar;
-    const Scene scene = granularBox(parameters);
-    SchemeSettings settings;
-    settings.h = 2e-4;
-    TimeStepper stepper(scene.model, scene.cmodel, settings);
-    stepper.reset(0.0, scene.q0, scene.v0);
-    for (int k = 0; k < 400; ++k) stepper.step();
-
+    const test::SettledProblem pile =
+        test::settledPile(120, 400, NormalLaw::Pos, Scheme::MoreauJean, planar);
+    const Scene& scene = pile.scene;
     const Model& model = scene.model;
-    const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Pos);
+    const test::StepProblem& step = pile.step;
     const ContactProblem& problem = step.problem;
     const VectorX& v_free = step.v_free;
     const int n = problem.size();

@@ -263,15 +263,9 @@ TEST(ContactIslands, SameAnswerAsOneSolve) {
 // one that waits for the impulses to settle first sweeps on for nothing. Both answers meet
 // the tolerance.
 TEST(ResidualCheck, StopsOnceTheResidualIsMetOnAHyperstaticPile) {
-  GranularBoxParameters parameters;
-  parameters.count = 150;
-  const Scene scene = granularBox(parameters);
-  SchemeSettings settings;
-  settings.h = 2e-4;
-  TimeStepper stepper(scene.model, scene.cmodel, settings);
-  stepper.reset(0.0, scene.q0, scene.v0);
-  for (int k = 0; k < 1500; ++k) stepper.step();
-  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Vel);
+  const test::SettledProblem pile = test::settledPile(150, 1500, NormalLaw::Vel);
+  const Scene& scene = pile.scene;
+  const test::StepProblem& step = pile.step;
   ASSERT_GT(step.problem.size(), 150);
   NlgsWorkspace ws;
   ws.prepare(step.problem.size(), scene.model.nv);
@@ -310,16 +304,10 @@ TEST(ResidualCheck, StopsOnceTheResidualIsMetOnAHyperstaticPile) {
 // get there in 1500 sweeps from a cold start, nor below 5e-7 in 200 000: GLOBAL's redundant
 // bilateral rows, docs/schemes.md.)
 TEST(ResidualCheck, FrictionStageMeasuresHeldRowsAgainstTheirNormalImpulse) {
-  GranularBoxParameters parameters;
-  parameters.count = 150;
-  const Scene scene = granularBox(parameters);
-  SchemeSettings settings;
-  settings.scheme = Scheme::CatchingUp;
-  settings.h = 2e-4;
-  TimeStepper stepper(scene.model, scene.cmodel, settings);
-  stepper.reset(0.0, scene.q0, scene.v0);
-  for (int k = 0; k < 1500; ++k) stepper.step();
-  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Vel);
+  const test::SettledProblem pile =
+      test::settledPile(150, 1500, NormalLaw::Vel, Scheme::CatchingUp);
+  const Scene& scene = pile.scene;
+  const test::StepProblem& step = pile.step;
   const ContactProblem& p = step.problem;
   ASSERT_GT(p.size(), 150);
   NlgsWorkspace ws;
@@ -371,16 +359,9 @@ namespace {
 class PackedRows : public ::testing::TestWithParam<TangentMode> {};
 
 TEST_P(PackedRows, SameAnswerAsTheGenericRows) {
-  GranularBoxParameters parameters;
-  parameters.count = 120;
-  const Scene scene = granularBox(parameters);
-  SchemeSettings settings;
-  settings.h = 2e-4;
-  TimeStepper stepper(scene.model, scene.cmodel, settings);
-  stepper.reset(0.0, scene.q0, scene.v0);
-  for (int k = 0; k < 400; ++k) stepper.step();
-
-  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Pos);
+  const test::SettledProblem pile = test::settledPile(120, 400, NormalLaw::Pos);
+  const Scene& scene = pile.scene;
+  const test::StepProblem& step = pile.step;
   const ContactProblem& packed = step.problem;
   ASSERT_EQ(static_cast<int>(packed.rows2d.size()), packed.size());
   ASSERT_GT(packed.size(), 100);
@@ -446,22 +427,10 @@ namespace {
 // generic rows, so the same sweeps and the same velocities to round-off, on a powder heap
 // with friction and rolling resistance.
 TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
-  PowderBedParameters parameters;
-  parameters.count = 120;
-  parameters.length = 1.5e-3;
-  parameters.travel = 0.5e-3;
-  parameters.heap_length = 0.4e-3;
-  parameters.settle_time = 0.01;
-  const Scene scene = buildScene(powderBed(parameters));
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
+  const Scene& scene = heap.scene;
+  const test::StepProblem& step = heap.step;
   ASSERT_TRUE(scene.cmodel.rolling);
-  SchemeSettings settings;
-  settings.h = 1e-5;
-  settings.normal_law = NormalLaw::Vel;
-  TimeStepper stepper(scene.model, scene.cmodel, settings, scene.forces);
-  stepper.reset(0.0, scene.q0, scene.v0);
-  for (int k = 0; k < 800; ++k) stepper.step();
-
-  const test::StepProblem step = test::problemAt(scene, stepper, NormalLaw::Iqs);
   const ContactProblem& packed = step.problem;
   ASSERT_EQ(static_cast<int>(packed.rows3d.size()), packed.size());
   ASSERT_GT(packed.size(), 100);
@@ -501,33 +470,10 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
 namespace sweep {
 namespace {
 
-// A small settled powder heap (friction, rolling resistance) and its next step's problem.
-struct PowderHeapProblem {
-  Scene scene;
-  test::StepProblem step;
-};
-PowderHeapProblem powderHeapProblem() {
-  PowderBedParameters parameters;
-  parameters.count = 120;
-  parameters.length = 1.5e-3;
-  parameters.travel = 0.5e-3;
-  parameters.heap_length = 0.4e-3;
-  parameters.settle_time = 0.01;
-  PowderHeapProblem out{buildScene(powderBed(parameters)), {}};
-  SchemeSettings settings;
-  settings.h = 1e-5;
-  settings.normal_law = NormalLaw::Vel;
-  TimeStepper stepper(out.scene.model, out.scene.cmodel, settings, out.scene.forces);
-  stepper.reset(0.0, out.scene.q0, out.scene.v0);
-  for (int k = 0; k < 800; ++k) stepper.step();
-  out.step = test::problemAt(out.scene, stepper, NormalLaw::Vel);
-  return out;
-}
-
 // NNCG (Silcowitz-Hansen, Niebe & Erleben 2010) on the heap, solved cold to a tight
 // tolerance: the same answer as plain Gauss-Seidel in fewer sweeps.
 TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
-  const PowderHeapProblem heap = powderHeapProblem();
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
   ASSERT_GT(p.size(), 100);
   NlgsSettings solver;
@@ -562,7 +508,7 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
 // Scheme B's stage 5a, the frictionless shock problem, is a convex QP: its velocities are
 // unique, and NNCG must reach them in fewer sweeps.
 TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {
-  const PowderHeapProblem heap = powderHeapProblem();
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
   NlgsSettings solver;
   solver.max_iterations = 100000;
@@ -591,7 +537,7 @@ TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {
 // The momentum follows a sweep and is never the last word: capped at one sweep, NNCG returns
 // plain Gauss-Seidel's first sweep, bit for bit.
 TEST(NncgAcceleration, OneSweepIsPlainGaussSeidel) {
-  const PowderHeapProblem heap = powderHeapProblem();
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
   NlgsSettings solver;
   solver.max_iterations = 1;

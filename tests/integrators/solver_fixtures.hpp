@@ -3,10 +3,14 @@
 // state with the library's stage functions, so that a solver can be called on its own.
 #include <gtest/gtest.h>
 
+#include <utility>
+
 #include "framework/dynamics.hpp"
 #include "framework/kinematics.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
+#include "models/powder_bed.hpp"
+#include "models/scene_spec.hpp"
 
 namespace sweep::test {
 
@@ -33,6 +37,49 @@ inline StepProblem problemAt(const Scene& scene, const TimeStepper& stepper, Nor
   assembleContactProblem(model, data, scene.cmodel, cdata, law, 0.5 * h, q, v, out.problem,
                          workspace);
   return out;
+}
+
+// A scene stepped `steps` times from its initial state with `settings` (its applied forces
+// included), and the problem of the step after, built with `law`.
+struct SettledProblem {
+  Scene scene;
+  StepProblem step;
+};
+inline SettledProblem settledProblem(Scene scene, const SchemeSettings& settings, int steps,
+                                     NormalLaw law) {
+  SettledProblem out{std::move(scene), {}};
+  TimeStepper stepper(out.scene.model, out.scene.cmodel, settings, out.scene.forces);
+  stepper.reset(0.0, out.scene.q0, out.scene.v0);
+  for (int k = 0; k < steps; ++k) stepper.step();
+  out.step = problemAt(out.scene, stepper, law);
+  return out;
+}
+
+// A granular box of `count` grains settled by `scheme` at h = 2e-4.
+inline SettledProblem settledPile(int count, int steps, NormalLaw law,
+                                  Scheme scheme = Scheme::MoreauJean, bool planar = true) {
+  GranularBoxParameters parameters;
+  parameters.count = count;
+  parameters.planar = planar;
+  SchemeSettings settings;
+  settings.scheme = scheme;
+  settings.h = 2e-4;
+  return settledProblem(granularBox(parameters), settings, steps, law);
+}
+
+// A small powder heap (120 spheres, friction, rolling resistance) settled for 800 steps of
+// 1e-5 s with VEL.
+inline SettledProblem settledPowderHeap(NormalLaw law) {
+  PowderBedParameters parameters;
+  parameters.count = 120;
+  parameters.length = 1.5e-3;
+  parameters.travel = 0.5e-3;
+  parameters.heap_length = 0.4e-3;
+  parameters.settle_time = 0.01;
+  SchemeSettings settings;
+  settings.h = 1e-5;
+  settings.normal_law = NormalLaw::Vel;
+  return settledProblem(buildScene(powderBed(parameters)), settings, 800, law);
 }
 
 // Test-name suffix of a scheme parameter.
