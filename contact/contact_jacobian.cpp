@@ -6,7 +6,8 @@
 namespace sweep {
 
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
-                             ContactData& cdata, double t, double max_gap) {
+                             ContactData& cdata, double t, double max_gap,
+                             const std::vector<char>* skip) {
   ContactJacobian& J = cdata.jacobian;
   J.dimension = cmodel.dimension;
   const int n = static_cast<int>(cdata.contacts.size());
@@ -24,7 +25,7 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
   for (int c = 0; c < n; ++c) {
     const Contact& contact = cdata.contacts[c];
     J.begin[c] = static_cast<int>(J.dof.size());
-    if (contact.gap > max_gap) {
+    if (contact.gap > max_gap || (skip != nullptr && (*skip)[c])) {
       J.known_velocity[c] = Vector3::Zero();
       if (J.rolling) J.known_spin[c] = Vector2::Zero();
       continue;
@@ -35,6 +36,13 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
     // (2D), the axes a rolling torque acts on
     const Vector3 roll1 = cmodel.dimension == 2 ? Vector3(Vector3::UnitZ()) : contact.tangent1;
     const Vector3 roll2 = cmodel.dimension == 2 ? Vector3(Vector3::Zero()) : contact.tangent2;
+    // Two sides in different trees never share a dof, so their columns are appended as they
+    // come; only a contact within one tree (self-collision) needs the slot lookup that merges
+    // them. A powder bed's 500 000 candidates spend a quarter of the step here.
+    const bool one_tree = contact.body_a.kind == BodyRef::Kind::Dynamic &&
+                          contact.body_b.kind == BodyRef::Kind::Dynamic &&
+                          model.bodies[contact.body_a.index].component ==
+                              model.bodies[contact.body_b.index].component;
     // U = velocity of b's point minus velocity of a's point, projected on the frame
     for (int side = 0; side < 2; ++side) {
       const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
@@ -43,7 +51,8 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
       if (body.kind == BodyRef::Kind::Dynamic) {
         forEachPointJacobianColumn(model, data, body.index, point,
                                    [&](int v_index, const Vector3& angular, const Vector3& linear) {
-                                     int& slot = cdata.dof_slot[v_index];
+                                     int unmerged = -1;
+                                     int& slot = one_tree ? cdata.dof_slot[v_index] : unmerged;
                                      if (slot < 0) {
                                        slot = static_cast<int>(J.dof.size());
                                        J.dof.push_back(v_index);
@@ -73,11 +82,39 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
         spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
       }
     }
-    for (int k = J.begin[c]; k < static_cast<int>(J.dof.size()); ++k) cdata.dof_slot[J.dof[k]] = -1;
+    if (one_tree)
+      for (int k = J.begin[c]; k < static_cast<int>(J.dof.size()); ++k)
+        cdata.dof_slot[J.dof[k]] = -1;
     J.known_velocity[c] = known;
     if (J.rolling) J.known_spin[c] = spin;
   }
   J.begin[n] = static_cast<int>(J.dof.size());
+}
+
+}  // namespace sweep
+
+namespace sweep {
+
+double contactNormalVelocity(const Model& model, const Data& data, const Contact& contact, double t,
+                             const Eigen::VectorXd& v) {
+  double u = 0.0;
+  for (int side = 0; side < 2; ++side) {
+    const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
+    const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
+    const double sign = side == 0 ? -1.0 : 1.0;
+    if (body.kind == BodyRef::Kind::Dynamic) {
+      forEachPointJacobianColumn(model, data, body.index, point,
+                                 [&](int v_index, const Vector3&, const Vector3& linear) {
+                                   u += sign * contact.normal.dot(linear) * v[v_index];
+                                 });
+    } else if (body.kind == BodyRef::Kind::Driven) {
+      const DrivenBody& driven = model.driven_bodies[body.index];
+      const Vector6 twist = driven.twist(t);
+      const Vector3 lever = point - driven.pose(t).translation;
+      u += sign * contact.normal.dot(twist.tail<3>() + twist.head<3>().cross(lever));
+    }
+  }
+  return u;
 }
 
 }  // namespace sweep

@@ -51,8 +51,15 @@ struct ContactJacobian {
 // their velocity at `t`. Contacts with gap > max_gap get no entries and zero known
 // velocities: a solve that takes closed contacts only (the VEL law) does not need the
 // rows of the open candidates, which in a granular heap outnumber the closed ones 2.5 to 1.
+// skip (when given, one flag per contact): contacts that get no entries either.
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
                              ContactData& cdata, double t,
-                             double max_gap = std::numeric_limits<double>::infinity());
+                             double max_gap = std::numeric_limits<double>::infinity(),
+                             const std::vector<char>* skip = nullptr);
+
+// U_N of one contact at velocity v without storing its rows: its normal row of
+// assembleContactJacobian times v, plus the driven bodies' part (same kinematics and t).
+double contactNormalVelocity(const Model& model, const Data& data, const Contact& contact, double t,
+                             const Eigen::VectorXd& v);
 
 }  // namespace sweep

@@ -51,8 +51,8 @@ struct SchemeSettings {
   // screening_rounds rounds every candidate joins. The answer is a solution of the whole
   // candidate problem: a contact with zero impulse whose law holds is a solution of its row.
   // Pays where the laws with gap terms (IQS, POS) carry many open candidates.
-  // screening_gap: candidates closer than this always join the first solve (< 0: 100 margin
-  // floors, a tenth of the smallest moving shape's size with the default floor).
+  // screening_gap: candidates closer than this always join the first solve (< 0: 200 margin
+  // floors, a fifth of the smallest moving shape's size with the default floor).
   bool screening = false;
   int screening_rounds = 8;
   double screening_gap = -1.0;
@@ -85,8 +85,9 @@ struct StepStats {
   double work_normal = 0.0;   // sum_c P_N (U_N(k) + U_N(k+1)) / 2
   double work_tangent = 0.0;  // sum_c P_T . (U_T(k) + U_T(k+1)) / 2
   double t_detect = 0.0, t_assemble = 0.0, t_solve = 0.0, t_update = 0.0;  // seconds
-  int solves = 1;    // solves of the step: 1, or the rounds of candidate screening
-  int deferred = 0;  // candidates left out of the last solve by screening
+  int solves = 1;       // solves of the step: 1, or the rounds of candidate screening
+  int deferred = 0;     // candidates left out of the last solve by screening
+  int unassembled = 0;  // of which had no Jacobian rows (judged from the bodies' twists)
 };
 
 // Applied generalized forces tau(t, q, v) besides gravity (which the Model carries).
@@ -167,6 +168,11 @@ class TimeStepper {
   // candidate screening, aligned with contacts: left out of the solve, solved this step
   std::vector<char> deferred_, solved_;
   std::vector<double> screening_bias_;  // the law's bias of each contact left out
+  // left out without Jacobian rows: judged from its bodies' twists
+  std::vector<char> unassembled_;
+  bool jacobian_stale_ = false;  // an admitted contact has no rows yet
+  // world twists of the root bodies at the step's start, contact-free, and predicted or final
+  std::vector<Vector6> start_twist_, free_twist_, end_twist_;
   VectorX v_contact_free_;
   VectorX contact_dv_;  // the contacts' velocity change in the last step (screening)
   VectorX v_predicted_;
