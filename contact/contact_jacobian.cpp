@@ -75,8 +75,7 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
       } else if (body.kind == BodyRef::Kind::Driven) {
         const DrivenBody& driven = model.driven_bodies[body.index];
         const Vector6 twist = driven.twist(t);
-        const Vector3 lever = point - driven.pose(t).translation;
-        const Vector3 velocity = twist.tail<3>() + twist.head<3>().cross(lever);
+        const Vector3 velocity = driven.pointVelocity(point, t);
         known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
                                 contact.tangent2.dot(velocity));
         spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
@@ -108,10 +107,7 @@ double contactNormalVelocity(const Model& model, const Data& data, const Contact
                                    u += sign * contact.normal.dot(linear) * v[v_index];
                                  });
     } else if (body.kind == BodyRef::Kind::Driven) {
-      const DrivenBody& driven = model.driven_bodies[body.index];
-      const Vector6 twist = driven.twist(t);
-      const Vector3 lever = point - driven.pose(t).translation;
-      u += sign * contact.normal.dot(twist.tail<3>() + twist.head<3>().cross(lever));
+      u += sign * contact.normal.dot(model.driven_bodies[body.index].pointVelocity(point, t));
     }
   }
   return u;

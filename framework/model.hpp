@@ -78,6 +78,11 @@ struct DrivenBody {
   double removal_time = std::numeric_limits<double>::infinity();
 
   bool presentAt(double t) const { return t < removal_time; }
+  // world velocity at time t of the body's material point now at world position `point`
+  Vector3 pointVelocity(const Vector3& point, double t) const {
+    const Vector6 v = twist(t);
+    return v.tail<3>() + v.head<3>().cross(point - pose(t).translation);
+  }
 
   static DrivenBody fixed(const std::string& name, const Pose& pose);
   static DrivenBody constantTwist(const std::string& name, const Pose& pose0,

@@ -170,10 +170,7 @@ bool normalVelocityFromTwists(const Model& model, const Data& data, const Contac
       const Vector3 lever = point - data.world_pose[body.index].translation;
       u += sign * contact.normal.dot(twist.tail<3>() + twist.head<3>().cross(lever));
     } else if (body.kind == BodyRef::Kind::Driven) {
-      const DrivenBody& driven = model.driven_bodies[body.index];
-      const Vector6 twist = driven.twist(t);
-      const Vector3 lever = point - driven.pose(t).translation;
-      u += sign * contact.normal.dot(twist.tail<3>() + twist.head<3>().cross(lever));
+      u += sign * contact.normal.dot(model.driven_bodies[body.index].pointVelocity(point, t));
     }
   }
   return true;
