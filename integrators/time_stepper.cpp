@@ -155,6 +155,14 @@ void rootBodyTwists(const Model& model, const Data& data, const VectorX& v,
   }
 }
 
+// Whether each side is a root body, a driven body or the world: then U_N follows from the
+// bodies' world twists.
+bool betweenRoots(const Model& model, const Contact& contact) {
+  for (const BodyRef& body : {contact.body_a, contact.body_b})
+    if (body.kind == BodyRef::Kind::Dynamic && model.bodies[body.index].parent >= 0) return false;
+  return true;
+}
+
 // U_N of a contact from its bodies' world twists: the product of its Jacobian's normal row
 // with v, without the rows. False when a side is a body with a parent (a link of a tree).
 bool normalVelocityFromTwists(const Model& model, const Data& data, const Contact& contact,
@@ -241,11 +249,11 @@ void TimeStepper::assemble() {
   assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m, max_gap, &unassembled_);
   jacobian_stale_ = false;
   stats_.t_assemble += seconds(start);
-  // the others (links of trees, VEL's closed contacts) from their Jacobian rows
+  // contacts with a link of a tree, from their Jacobian rows
   const ContactJacobian& J = cdata_.jacobian;
   for (int id = 0; id < m; ++id) {
     const Contact& contact = cdata_.contacts[id];
-    if (unassembled_[id]) continue;
+    if (betweenRoots(model_, contact)) continue;
     if (settings_.normal_law == NormalLaw::Vel && contact.gap > touching) continue;
     if (contact.gap <= near || carriedImpulse(contact)) continue;
     deferred_[id] =
