@@ -91,26 +91,3 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
 }
 
 }  // namespace sweep
-
-namespace sweep {
-
-double contactNormalVelocity(const Model& model, const Data& data, const Contact& contact, double t,
-                             const Eigen::VectorXd& v) {
-  double u = 0.0;
-  for (int side = 0; side < 2; ++side) {
-    const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
-    const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
-    const double sign = side == 0 ? -1.0 : 1.0;
-    if (body.kind == BodyRef::Kind::Dynamic) {
-      forEachPointJacobianColumn(model, data, body.index, point,
-                                 [&](int v_index, const Vector3&, const Vector3& linear) {
-                                   u += sign * contact.normal.dot(linear) * v[v_index];
-                                 });
-    } else if (body.kind == BodyRef::Kind::Driven) {
-      u += sign * contact.normal.dot(model.driven_bodies[body.index].pointVelocity(point, t));
-    }
-  }
-  return u;
-}
-
-}  // namespace sweep

@@ -57,9 +57,4 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
                              double max_gap = std::numeric_limits<double>::infinity(),
                              const std::vector<char>* skip = nullptr);
 
-// U_N of one contact at velocity v without storing its rows: its normal row of
-// assembleContactJacobian times v, plus the driven bodies' part (same kinematics and t).
-double contactNormalVelocity(const Model& model, const Data& data, const Contact& contact, double t,
-                             const Eigen::VectorXd& v);
-
 }  // namespace sweep

@@ -185,19 +185,26 @@ bool normalVelocityFromTwists(const Model& model, const Data& data, const Contac
 }
 }  // namespace
 
-void TimeStepper::assemble() {
+void TimeStepper::assembleJacobian() {
   const auto start = Clock::now();
-  const double t_m = t_ + 0.5 * settings_.h;
   // forwardDynamics left the kinematics of data at q_m
   // VEL solves closed contacts only: the open candidates need no rows
   const double max_gap = settings_.normal_law == NormalLaw::Vel
                              ? touchingGap(cmodel_)
                              : std::numeric_limits<double>::infinity();
+  assembleContactJacobian(model_, data_, cmodel_, cdata_, t_ + 0.5 * settings_.h, max_gap,
+                          unassembled_.empty() ? nullptr : &unassembled_);
+  jacobian_stale_ = false;
+  stats_.t_assemble += seconds(start);
+}
+
+void TimeStepper::assemble() {
+  const auto start = Clock::now();
+  const double t_m = t_ + 0.5 * settings_.h;
   if (!settings_.screening) {
-    assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m, max_gap);
-    stats_.t_assemble += seconds(start);
     deferred_.clear();
     unassembled_.clear();
+    assembleJacobian();
     assembleProblem();
     return;
   }
@@ -246,9 +253,8 @@ void TimeStepper::assemble() {
     if (leaveOut(contact, u_start, u_free, u_pushed, screening_bias_[id]))
       unassembled_[id] = deferred_[id] = 1;
   }
-  assembleContactJacobian(model_, data_, cmodel_, cdata_, t_m, max_gap, &unassembled_);
-  jacobian_stale_ = false;
   stats_.t_assemble += seconds(start);
+  assembleJacobian();
   // contacts with a link of a tree, from their Jacobian rows
   const ContactJacobian& J = cdata_.jacobian;
   for (int id = 0; id < m; ++id) {
@@ -323,16 +329,7 @@ void TimeStepper::solve() {
       jacobian_stale_ = true;
     }
     v_free_ = v_contact_free_;
-    if (jacobian_stale_) {
-      const auto start = Clock::now();
-      const double max_gap = settings_.normal_law == NormalLaw::Vel
-                                 ? touchingGap(cmodel_)
-                                 : std::numeric_limits<double>::infinity();
-      assembleContactJacobian(model_, data_, cmodel_, cdata_, t_ + 0.5 * settings_.h, max_gap,
-                              &unassembled_);
-      jacobian_stale_ = false;
-      stats_.t_assemble += seconds(start);
-    }
+    if (jacobian_stale_) assembleJacobian();
     assembleProblem();
   }
   contact_dv_ = v_free_ - v_contact_free_;

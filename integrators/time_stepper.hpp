@@ -118,15 +118,16 @@ class TimeStepper {
   double energy();  // kinetic + potential at the current state
 
  private:
-  void midpoint();         // 1
-  void detect();           // 2
-  void freeVelocity();     // 4
-  void assemble();         // 3: Jacobian, then the problem
-  void assembleProblem();  // 3: the problem of the contacts not deferred, warm-started
-  void solve();            // 5, with candidate screening when set
-  void solveMoreauJean();  // 5, scheme A
-  void solveCatchingUp();  // 5, scheme B
-  void keepImpulses();     // the solve's impulses by contact: warm start of the next solve
+  void midpoint();          // 1
+  void detect();            // 2
+  void freeVelocity();      // 4
+  void assemble();          // 3: Jacobian, then the problem
+  void assembleJacobian();  // 3: rows of the contacts not unassembled
+  void assembleProblem();   // 3: the problem of the contacts not deferred, warm-started
+  void solve();             // 5, with candidate screening when set
+  void solveMoreauJean();   // 5, scheme A
+  void solveCatchingUp();   // 5, scheme B
+  void keepImpulses();      // the solve's impulses by contact: warm start of the next solve
   // contacts left out that break their law at the solve's velocities join (returns how many)
   int admitViolators();
   void update();  // 6
