@@ -70,9 +70,12 @@ void ContactProblem::pack3d() {
     row.known = known[c];
     row.bias = normal_bias[c];
     row.mu = friction[c];
+    // problems built by hand (tests) may leave the diagonal flags out: general rows
+    const bool diagonal_row = c < static_cast<int>(diagonal.size()) && diagonal[c] != 0;
     row.begin = static_cast<int>(h3d.size());
     for (int k = begin[c]; k < begin[c + 1]; ++k) {
-      PackedEntry3d entry{h[k].x(), h[k].y(), h[k].z(), 0.0, 0.0, dof[k]};
+      PackedEntry3d entry{
+          h[k].x(), h[k].y(), h[k].z(), 0.0, 0.0, diagonal_row ? h_inverse_mass[k] : 0.0, dof[k]};
       if (rolling) {
         entry.rolling1 = rolling_h[k].x();
         entry.rolling2 = rolling_h[k].y();
@@ -81,8 +84,8 @@ void ContactProblem::pack3d() {
     }
     row.end = static_cast<int>(h3d.size());
     row.minv_begin = static_cast<int>(minv3d.size());
-    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) {
-      PackedEntry3d entry{minv_h[k].x(), minv_h[k].y(), minv_h[k].z(), 0.0, 0.0, minv_dof[k]};
+    for (int k = minv_begin[c]; k < (diagonal_row ? minv_begin[c] : minv_begin[c + 1]); ++k) {
+      PackedEntry3d entry{minv_h[k].x(), minv_h[k].y(), minv_h[k].z(), 0.0, 0.0, 0.0, minv_dof[k]};
       if (rolling) {
         entry.rolling1 = rolling_minv_h[k].x();
         entry.rolling2 = rolling_minv_h[k].y();
@@ -99,17 +102,22 @@ void ContactProblem::pack3d() {
       if (std::abs(W_r(0, 1)) <= 1e-12 * trace && std::abs(W_r(0, 0) - W_r(1, 1)) <= 1e-12 * trace)
         row.rolling_isotropic_inverse = 1.0 / W_r(0, 0);
       // H_r^T M^-1 H_c: how the contact's own impulse turns the rolling velocity
-      for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) {
-        if (minv_dof[m] >= static_cast<int>(pack_minv_slot.size()))
-          pack_minv_slot.resize(minv_dof[m] + 1, -1);
-        pack_minv_slot[minv_dof[m]] = m;
+      if (diagonal_row) {
+        for (int k = begin[c]; k < begin[c + 1]; ++k)
+          row.rolling_coupling += rolling_h[k] * (h_inverse_mass[k] * h[k]).transpose();
+      } else {
+        for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) {
+          if (minv_dof[m] >= static_cast<int>(pack_minv_slot.size()))
+            pack_minv_slot.resize(minv_dof[m] + 1, -1);
+          pack_minv_slot[minv_dof[m]] = m;
+        }
+        for (int k = begin[c]; k < begin[c + 1]; ++k) {
+          const int m =
+              dof[k] < static_cast<int>(pack_minv_slot.size()) ? pack_minv_slot[dof[k]] : -1;
+          if (m >= 0) row.rolling_coupling += rolling_h[k] * minv_h[m].transpose();
+        }
+        for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) pack_minv_slot[minv_dof[m]] = -1;
       }
-      for (int k = begin[c]; k < begin[c + 1]; ++k) {
-        const int m =
-            dof[k] < static_cast<int>(pack_minv_slot.size()) ? pack_minv_slot[dof[k]] : -1;
-        if (m >= 0) row.rolling_coupling += rolling_h[k] * minv_h[m].transpose();
-      }
-      for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) pack_minv_slot[minv_dof[m]] = -1;
     }
     rows3d.push_back(row);
   }
@@ -139,6 +147,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.h.clear();
   p.minv_dof.clear();
   p.minv_h.clear();
+  p.h_inverse_mass.clear();
+  p.diagonal.clear();
   p.delassus.clear();
   p.delassus_inverse.clear();
   p.normal_compliance_inverse.clear();
@@ -217,6 +227,16 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       }
     }
     p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+    bool diagonal_row = true;
+    for (int comp : ws.touched)
+      diagonal_row =
+          diagonal_row && data.has_constant_inverse6[comp] && data.constant_inverse6_diagonal[comp];
+    p.diagonal.push_back(diagonal_row ? 1 : 0);
+    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+      const int comp = ws.dof_component[p.dof[k]];
+      const int i = p.dof[k] - model.components[comp].v_index;
+      p.h_inverse_mass.push_back(diagonal_row ? data.constant_inverse6[comp](i, i) : 0.0);
+    }
     // islands: the components of one row are joined
     ws.row_component.push_back(ws.touched.front());
     for (int comp : ws.touched) {

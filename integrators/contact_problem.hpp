@@ -35,6 +35,11 @@ struct ContactProblem {
   std::vector<int> minv_begin;
   std::vector<int> minv_dof;
   std::vector<Vector3> minv_h;  // (M^-1 W_N, M^-1 W_T1, M^-1 W_T2) at minv_dof
+  // per H entry: the inverse mass at its dof when every body of the row has a constant
+  // diagonal inverse mass (free spheres, bodies on their principal axes), so M^-1 H is that
+  // entry scaled; 0 in the other rows. The packed 3D rows then skip the M^-1 H entries.
+  std::vector<double> h_inverse_mass;
+  std::vector<char> diagonal;  // per row: the case above
 
   std::vector<Matrix3> delassus;                  // W_cc, d x d used
   std::vector<Matrix3> delassus_inverse;          // W_cc^-1 (d x d block; zero elsewhere)
@@ -94,10 +99,14 @@ struct ContactProblem {
     // 1 / W_r(0, 0) when W_r is a multiple of the identity (spheres), else 0: the disc
     // projection is then Euclidean and closed-form
     double rolling_isotropic_inverse = 0.0;
+    // a diagonal row (see h_inverse_mass) has no M^-1 H entries: minv_begin == minv_end, and
+    // v is updated through its H entries. On the powder bed this halves the bytes a local
+    // update reads, and the sweeps are bound by them.
     int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
   };
   struct PackedEntry3d {
     double normal = 0.0, tangent1 = 0.0, tangent2 = 0.0, rolling1 = 0.0, rolling2 = 0.0;
+    double inverse_mass = 0.0;  // of a diagonal row's H entry
     int dof = 0;
   };
   std::vector<PackedRow3d> rows3d;

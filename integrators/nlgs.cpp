@@ -325,6 +325,13 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
     change2 += dR.squaredNorm() / lever2;
     size2 += R->squaredNorm() / lever2;
   }
+  if (r.minv_begin == r.minv_end) {  // a diagonal row: M^-1 H is H scaled
+    for (int k = r.begin; k < r.end; ++k)
+      v[h[k].dof] += h[k].inverse_mass *
+                     (h[k].normal * dP.x() + h[k].tangent1 * dP.y() + h[k].tangent2 * dP.z() +
+                      h[k].rolling1 * dR.x() + h[k].rolling2 * dR.y());
+    return;
+  }
   for (int k = r.minv_begin; k < r.minv_end; ++k)
     v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent1 * dP.y() +
                       minv[k].tangent2 * dP.z() + minv[k].rolling1 * dR.x() +

@@ -423,9 +423,10 @@ namespace sweep {
 namespace {
 
 // The packed 3D rows fold each contact's rolling rows into its own pass (the rolling velocity
-// after the contact's update taken as U_r + W_rc dP): the same block Gauss-Seidel as the
-// generic rows, so the same sweeps and the same velocities to round-off, on a powder heap
-// with friction and rolling resistance.
+// after the contact's update taken as U_r + W_rc dP), and update v through H scaled by the
+// spheres' diagonal inverse mass: the same block Gauss-Seidel as the generic rows, so the same
+// sweeps and the same velocities to round-off, on a powder heap with friction and rolling
+// resistance.
 TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
   const Scene& scene = heap.scene;
@@ -437,6 +438,10 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   int rolling_rows = 0;
   for (const auto& row : packed.rows3d) rolling_rows += row.rolling_bound > 0.0 ? 1 : 0;
   ASSERT_GT(rolling_rows, 100);
+  // free spheres: the packed rows update v through their H entries (no M^-1 H entries)
+  int diagonal_rows = 0;
+  for (const auto& row : packed.rows3d) diagonal_rows += row.minv_begin == row.minv_end ? 1 : 0;
+  ASSERT_EQ(diagonal_rows, packed.size());
   ContactProblem generic = packed;
   generic.rows3d.clear();
 
