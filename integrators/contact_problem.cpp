@@ -51,6 +51,10 @@ void ContactProblem::pack2d() {
     for (int k = begin[c]; k < begin[c + 1]; ++k) h2d.push_back({h[k].x(), h[k].y(), dof[k]});
     row.end = static_cast<int>(h2d.size());
     row.minv_begin = static_cast<int>(minv2d.size());
+    if (isDiagonal(c)) {
+      for (int k = begin[c]; k < begin[c + 1]; ++k)
+        minv2d.push_back({h_inverse_mass[k] * h[k].x(), h_inverse_mass[k] * h[k].y(), dof[k]});
+    }
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k)
       minv2d.push_back({minv_h[k].x(), minv_h[k].y(), minv_dof[k]});
     row.minv_end = static_cast<int>(minv2d.size());
@@ -70,8 +74,7 @@ void ContactProblem::pack3d() {
     row.known = known[c];
     row.bias = normal_bias[c];
     row.mu = friction[c];
-    // problems built by hand (tests) may leave the diagonal flags out: general rows
-    const bool diagonal_row = c < static_cast<int>(diagonal.size()) && diagonal[c] != 0;
+    const bool diagonal_row = isDiagonal(c);
     row.begin = static_cast<int>(h3d.size());
     for (int k = begin[c]; k < begin[c + 1]; ++k) {
       PackedEntry3d entry{
@@ -181,61 +184,79 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.begin.push_back(static_cast<int>(p.dof.size()));
     // M^-1 H_c, component by component (a contact touches at most two)
     ws.touched.clear();
+    bool diagonal_row = true;
     for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
       const int comp = ws.dof_component[p.dof[k]];
       if (std::find(ws.touched.begin(), ws.touched.end(), comp) != ws.touched.end()) continue;
       ws.touched.push_back(comp);
-      if (!data.has_constant_inverse6[comp])
-        ws.component_rhs[comp].setZero(model.components[comp].nv, rhs_columns);
+      diagonal_row =
+          diagonal_row && data.has_constant_inverse6[comp] && data.constant_inverse6_diagonal[comp];
     }
-    for (int comp : ws.touched) {
-      const Component& component = model.components[comp];
-      if (data.has_constant_inverse6[comp]) {
-        // a free body: fixed-size work, and a diagonal inverse (a ball, a body on its principal
-        // axes) scales rows instead of multiplying
-        Eigen::Matrix<double, 6, 5> rhs = Eigen::Matrix<double, 6, 5>::Zero();
+    p.diagonal.push_back(diagonal_row ? 1 : 0);
+    Matrix3 W = Matrix3::Zero();
+    Matrix2 W_r = Matrix2::Zero();
+    if (diagonal_row) {
+      // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass)
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+        const int comp = ws.dof_component[p.dof[k]];
+        const double inverse_mass =
+            data.constant_inverse6[comp].diagonal()[p.dof[k] - model.components[comp].v_index];
+        p.h_inverse_mass.push_back(inverse_mass);
+        W += (inverse_mass * p.h[k]) * p.h[k].transpose();
+        if (p.rolling) W_r += (inverse_mass * p.rolling_h[k]) * p.rolling_h[k].transpose();
+      }
+      p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+    } else {
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) p.h_inverse_mass.push_back(0.0);
+      for (int comp : ws.touched) {
+        const Component& component = model.components[comp];
+        if (data.has_constant_inverse6[comp]) {
+          // a free body off its principal axes: fixed-size work
+          Eigen::Matrix<double, 6, 5> rhs = Eigen::Matrix<double, 6, 5>::Zero();
+          for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+            if (ws.dof_component[p.dof[k]] != comp) continue;
+            const int i = p.dof[k] - component.v_index;
+            rhs.row(i).head<3>() = p.h[k].transpose();
+            if (p.rolling) rhs.row(i).tail<2>() = p.rolling_h[k].transpose();
+          }
+          Eigen::Matrix<double, 6, 5> solved;
+          if (data.constant_inverse6_diagonal[comp])
+            solved = data.constant_inverse6[comp].diagonal().asDiagonal() * rhs;
+          else
+            solved.noalias() = data.constant_inverse6[comp] * rhs;
+          for (int i = 0; i < 6; ++i) {
+            p.minv_dof.push_back(component.v_index + i);
+            p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
+            if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
+          }
+          continue;
+        }
+        MatrixX& solved = ws.component_rhs[comp];
+        solved.setZero(component.nv, rhs_columns);
         for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
           if (ws.dof_component[p.dof[k]] != comp) continue;
           const int i = p.dof[k] - component.v_index;
-          rhs.row(i).head<3>() = p.h[k].transpose();
-          if (p.rolling) rhs.row(i).tail<2>() = p.rolling_h[k].transpose();
+          solved.row(i).head<3>() = p.h[k].transpose();
+          if (p.rolling) solved.row(i).tail<2>() = p.rolling_h[k].transpose();
         }
-        Eigen::Matrix<double, 6, 5> solved;
-        if (data.constant_inverse6_diagonal[comp])
-          solved = data.constant_inverse6[comp].diagonal().asDiagonal() * rhs;
-        else
-          solved.noalias() = data.constant_inverse6[comp] * rhs;
-        for (int i = 0; i < 6; ++i) {
+        data.mass_factors[comp].solveInPlace(solved);
+        for (int i = 0; i < component.nv; ++i) {
           p.minv_dof.push_back(component.v_index + i);
           p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
           if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
         }
-        continue;
       }
-      MatrixX& solved = ws.component_rhs[comp];
+      p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+      // W_cc = H_c^T M^-1 H_c
+      for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = m;
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-        if (ws.dof_component[p.dof[k]] != comp) continue;
-        const int i = p.dof[k] - component.v_index;
-        solved.row(i).head<3>() = p.h[k].transpose();
-        if (p.rolling) solved.row(i).tail<2>() = p.rolling_h[k].transpose();
+        const int m = ws.minv_slot[p.dof[k]];
+        if (m < 0) continue;
+        W += p.h[k] * p.minv_h[m].transpose();
+        if (p.rolling) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
       }
-      data.mass_factors[comp].solveInPlace(solved);
-      for (int i = 0; i < component.nv; ++i) {
-        p.minv_dof.push_back(component.v_index + i);
-        p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
-        if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
-      }
-    }
-    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
-    bool diagonal_row = true;
-    for (int comp : ws.touched)
-      diagonal_row =
-          diagonal_row && data.has_constant_inverse6[comp] && data.constant_inverse6_diagonal[comp];
-    p.diagonal.push_back(diagonal_row ? 1 : 0);
-    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-      const int comp = ws.dof_component[p.dof[k]];
-      const int i = p.dof[k] - model.components[comp].v_index;
-      p.h_inverse_mass.push_back(diagonal_row ? data.constant_inverse6[comp](i, i) : 0.0);
+      for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
+        ws.minv_slot[p.minv_dof[m]] = -1;
     }
     // islands: the components of one row are joined
     ws.row_component.push_back(ws.touched.front());
@@ -244,13 +265,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
     }
 
-    // W_cc = H_c^T M^-1 H_c
-    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = m;
-    Matrix3 W = Matrix3::Zero();
-    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-      const int m = ws.minv_slot[p.dof[k]];
-      if (m >= 0) W += p.h[k] * p.minv_h[m].transpose();
-    }
     if (p.dimension == 2) {
       W.row(2).setZero();
       W.col(2).setZero();
@@ -277,11 +291,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.velocity_start.push_back(u_start);
     p.normal_bias.push_back(normalBias(law, e, u_start.x(), gap, tau));
     if (p.rolling) {
-      Matrix2 W_r = Matrix2::Zero();
-      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-        const int m = ws.minv_slot[p.dof[k]];
-        if (m >= 0) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
-      }
       if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
       // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
       if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
@@ -289,7 +298,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       p.rolling_known.push_back(known_spin);
       p.rolling_bound.push_back(rolling_bound);
     }
-    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = -1;
   };
 
   const double touching = touchingGap(cmodel);

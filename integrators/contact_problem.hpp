@@ -31,15 +31,17 @@ struct ContactProblem {
 
   std::vector<int> begin;  // H entries of contact c: [begin[c], begin[c + 1])
   std::vector<int> dof;
-  std::vector<Vector3> h;  // (W_N, W_T1, W_T2) at dof
-  std::vector<int> minv_begin;
+  std::vector<Vector3> h;       // (W_N, W_T1, W_T2) at dof
+  std::vector<int> minv_begin;  // general rows only: see diagonal below
   std::vector<int> minv_dof;
   std::vector<Vector3> minv_h;  // (M^-1 W_N, M^-1 W_T1, M^-1 W_T2) at minv_dof
   // per H entry: the inverse mass at its dof when every body of the row has a constant
   // diagonal inverse mass (free spheres, bodies on their principal axes), so M^-1 H is that
-  // entry scaled; 0 in the other rows. The packed 3D rows then skip the M^-1 H entries.
+  // entry scaled; 0 in the other rows. Such a diagonal row stores no M^-1 H entries
+  // (minv_begin[c] == minv_begin[c + 1]): on a powder bed they were half the bytes that the
+  // assembly wrote and a local update read. Rows read through the members below.
   std::vector<double> h_inverse_mass;
-  std::vector<char> diagonal;  // per row: the case above
+  std::vector<char> diagonal;  // per row: the case above (problems built by hand may omit it)
 
   std::vector<Matrix3> delassus;                  // W_cc, d x d used
   std::vector<Matrix3> delassus_inverse;          // W_cc^-1 (d x d block; zero elsewhere)
@@ -126,8 +128,13 @@ struct ContactProblem {
     for (int k = begin[c]; k < begin[c + 1]; ++k) u += h[k] * v[dof[k]];
     return u;
   }
+  bool isDiagonal(int c) const { return c < static_cast<int>(diagonal.size()) && diagonal[c]; }
   // v += M^-1 H_c dP
   void applyImpulse(int c, const Vector3& dP, VectorX& v) const {
+    if (isDiagonal(c)) {
+      for (int k = begin[c]; k < begin[c + 1]; ++k) v[dof[k]] += h_inverse_mass[k] * h[k].dot(dP);
+      return;
+    }
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) v[minv_dof[k]] += minv_h[k].dot(dP);
   }
   Vector2 rollingVelocity(int c, const VectorX& v) const {
@@ -137,6 +144,11 @@ struct ContactProblem {
   }
   // v += M^-1 H_r,c dR
   void applyRolling(int c, const Vector2& dR, VectorX& v) const {
+    if (isDiagonal(c)) {
+      for (int k = begin[c]; k < begin[c + 1]; ++k)
+        v[dof[k]] += h_inverse_mass[k] * rolling_h[k].dot(dR);
+      return;
+    }
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k)
       v[minv_dof[k]] += rolling_minv_h[k].dot(dR);
   }

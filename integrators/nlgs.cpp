@@ -375,12 +375,15 @@ class NncgMomentum {
     }
     for (int k = 0; k < n; ++k) {
       const int c = ws.order[k];
-      for (int e = p.minv_begin[c]; e < p.minv_begin[c + 1]; ++e) {
-        const int dof = p.minv_dof[e];
-        if (ws.dof_stamp[dof] == ws.stamp) continue;
+      auto add = [&](int dof) {
+        if (ws.dof_stamp[dof] == ws.stamp) return;
         ws.dof_stamp[dof] = ws.stamp;
         ws.island_dofs[dofs_++] = dof;
-      }
+      };
+      // the dofs a row's impulse moves: its M^-1 H entries, or its H entries if diagonal
+      if (p.isDiagonal(c))
+        for (int e = p.begin[c]; e < p.begin[c + 1]; ++e) add(p.dof[e]);
+      for (int e = p.minv_begin[c]; e < p.minv_begin[c + 1]; ++e) add(p.minv_dof[e]);
     }
     int slot = 0;
     for (int k = 0; k < n; ++k) {
