@@ -273,16 +273,30 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   size2 += P_new.squaredNorm();
 }
 
-// One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
-// same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
-// the velocity the contact left), equal to it up to round-off.
-inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
-                            const ContactProblem::PackedEntry3d* h,
-                            const ContactProblem::PackedEntry3d* minv, double omega,
-                            LocalSolver3d local_solver, Vector3& P, Vector2* R, VectorX& v,
-                            double& change2, double& size2, int& failures) {
-  Vector3 u = r.known;
-  Vector2 u_rolling = r.rolling_known;
+// v += M^-1 (H_c dP + H_r dR) on a packed 3D row
+inline void applyPacked3d(const ContactProblem::PackedRow3d& r,
+                          const ContactProblem::PackedEntry3d* h,
+                          const ContactProblem::PackedEntry3d* minv, const Vector3& dP,
+                          const Vector2& dR, VectorX& v) {
+  if (r.minv_begin == r.minv_end) {  // a diagonal row: M^-1 H is H scaled
+    for (int k = r.begin; k < r.end; ++k)
+      v[h[k].dof] += h[k].inverse_mass *
+                     (h[k].normal * dP.x() + h[k].tangent1 * dP.y() + h[k].tangent2 * dP.z() +
+                      h[k].rolling1 * dR.x() + h[k].rolling2 * dR.y());
+    return;
+  }
+  for (int k = r.minv_begin; k < r.minv_end; ++k)
+    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent1 * dP.y() +
+                      minv[k].tangent2 * dP.z() + minv[k].rolling1 * dR.x() +
+                      minv[k].rolling2 * dR.y();
+}
+
+// (U_c, U_r) = H^T v + known on a packed 3D row: one pass over its entries
+inline void packedVelocity3d(const ContactProblem::PackedRow3d& r,
+                             const ContactProblem::PackedEntry3d* h, const VectorX& v, Vector3& u,
+                             Vector2& u_rolling) {
+  u = r.known;
+  u_rolling = r.rolling_known;
   for (int k = r.begin; k < r.end; ++k) {
     const double vk = v[h[k].dof];
     u.x() += h[k].normal * vk;
@@ -291,6 +305,19 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
     u_rolling.x() += h[k].rolling1 * vk;
     u_rolling.y() += h[k].rolling2 * vk;
   }
+}
+
+// One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
+// same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
+// the velocity the contact left), equal to it up to round-off.
+inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
+                            const ContactProblem::PackedEntry3d* h,
+                            const ContactProblem::PackedEntry3d* minv, double omega,
+                            LocalSolver3d local_solver, Vector3& P, Vector2* R, VectorX& v,
+                            double& change2, double& size2, int& failures) {
+  Vector3 u;
+  Vector2 u_rolling;
+  packedVelocity3d(r, h, v, u, u_rolling);
   Vector3 q = u - r.W * P;
   q.x() += r.bias;
   Vector3 P_new = Vector3::Zero();
@@ -325,17 +352,7 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
     change2 += dR.squaredNorm() / lever2;
     size2 += R->squaredNorm() / lever2;
   }
-  if (r.minv_begin == r.minv_end) {  // a diagonal row: M^-1 H is H scaled
-    for (int k = r.begin; k < r.end; ++k)
-      v[h[k].dof] += h[k].inverse_mass *
-                     (h[k].normal * dP.x() + h[k].tangent1 * dP.y() + h[k].tangent2 * dP.z() +
-                      h[k].rolling1 * dR.x() + h[k].rolling2 * dR.y());
-    return;
-  }
-  for (int k = r.minv_begin; k < r.minv_end; ++k)
-    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent1 * dP.y() +
-                      minv[k].tangent2 * dP.z() + minv[k].rolling1 * dR.x() +
-                      minv[k].rolling2 * dR.y();
+  applyPacked3d(r, h, minv, dP, dR, v);
 }
 
 constexpr double kNncgRestart = 1.5;
@@ -767,9 +784,72 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       size2 += (lambda + dl) * (lambda + dl) + delta[c] * delta[c];
     }
   };
+  // 3D: one pass reads the contact's and its rolling row's velocities and one writes v, where
+  // the generic rows below take four. The rolling row is updated first, as there, and its
+  // effect on the contact's velocity is H_c^T M^-1 H_r dR = rolling_coupling^T dR.
+  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
+                        options.threshold == FrictionThreshold::Physical &&
+                        (R == nullptr || static_cast<int>(R->size()) == p.size());
+  auto packedSweep3d = [&](double& change2, double& size2) {
+    const ContactProblem::PackedEntry3d* h = p.h3d.data();
+    const ContactProblem::PackedEntry3d* minv = p.minv3d.data();
+    const double omega = settings.relaxation;
+    for (int k = 0; k < count; ++k) {
+      const int c = ws.order[k];
+      const bool rolling_row = hasRollingRow(p, R, c);
+      const bool friction_row = ws.threshold[c] > 0.0 || held(c);
+      if (!rolling_row && !friction_row) continue;
+      const ContactProblem::PackedRow3d& r = p.rows3d[c];
+      Vector3 u;
+      Vector2 u_rolling;
+      packedVelocity3d(r, h, v, u, u_rolling);
+      Vector2 dR = Vector2::Zero();
+      if (rolling_row) {
+        Vector2& R_c = (*R)[c];
+        dR = omega * (rollingTarget(p, c, lambda_N[c], R_c, u_rolling) - R_c);
+        R_c += dR;
+        const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
+        change2 += dR.squaredNorm() / lever2;
+        size2 += R_c.squaredNorm() / lever2;
+        u += r.rolling_coupling.transpose() * dR;
+      }
+      Vector3 dP = Vector3::Zero();
+      if (friction_row) {
+        const Vector2& coupling = ws.coupling[c];
+        Vector2 uT = Vector2(u.y(), u.z()) - ws.offset[c];
+        Matrix2 A = ws.schur[c];
+        const bool bilateral = options.tangents == TangentMode::Global && held(c);
+        double drift = 0.0;
+        if (options.tangents == TangentMode::Global) {
+          drift = u.x() - ws.held_normal[c];
+          uT -= coupling * drift;
+        } else if (options.tangents == TangentMode::Local) {
+          uT -= coupling * u.x();
+        } else {
+          A = r.W.block<2, 2>(1, 1);
+        }
+        const Vector2 dl =
+            omega * (minimizeOnDisc(A, lambda_T[c], uT, ws.threshold[c]) - lambda_T[c]);
+        dP = tangentMap(c, dl);
+        if (bilateral) {
+          const double dd = -(drift + r.W.block<1, 2>(0, 1).dot(dl)) / r.W(0, 0);
+          dP.x() += dd;
+          delta[c] += dd;
+        }
+        lambda_T[c] += dl;
+        change2 += dP.squaredNorm();
+        size2 += lambda_T[c].squaredNorm() + delta[c] * delta[c];
+      }
+      applyPacked3d(r, h, minv, dP, dR, v);
+    }
+  };
   auto sweep = [&](bool residual_only, double& change2, double& size2) {
     if (packed && !residual_only) {
       packedSweep(change2, size2);
+      return 0.0;
+    }
+    if (packed3d && !residual_only) {
+      packedSweep3d(change2, size2);
       return 0.0;
     }
     double f2 = 0.0, scale2 = 0.0;

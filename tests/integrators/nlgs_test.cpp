@@ -475,6 +475,70 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
 namespace sweep {
 namespace {
 
+// Scheme B's stage 5b on the packed 3D rows reads the contact's and its rolling row's
+// velocities in one pass and writes v in one, the rolling row first as on the generic rows:
+// the same sweeps and the same answer to round-off, on a powder heap with friction, rolling
+// resistance and the IQS law (whose restitution and gap terms make GLOBAL project v1).
+class PackedFrictionStage3d : public ::testing::TestWithParam<TangentMode> {};
+
+TEST_P(PackedFrictionStage3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
+  const Scene& scene = heap.scene;
+  const test::StepProblem& step = heap.step;
+  const ContactProblem& packed = step.problem;
+  ASSERT_EQ(static_cast<int>(packed.rows3d.size()), packed.size());
+  ASSERT_GT(packed.size(), 100);
+  ContactProblem generic = packed;
+  generic.rows3d.clear();
+
+  NlgsSettings solver;
+  solver.max_iterations = 200;  // the paths are compared, not the converged answers
+  FrictionStageOptions options;
+  options.tangents = GetParam();
+  NlgsWorkspace ws;
+  ws.prepare(packed.size(), scene.model.nv);
+  const double scale = step.v_free.norm();
+  std::vector<double> lambda_N(packed.size(), 0.0);
+  VectorX after_normal = step.v_free;
+  solveNormalStage(packed, solver, lambda_N, after_normal, ws);
+
+  std::vector<double> delta1(packed.size(), 0.0), delta2 = delta1;
+  std::vector<Vector2> tangent1(packed.size(), Vector2::Zero()), tangent2 = tangent1;
+  std::vector<Vector2> R1(packed.size(), Vector2::Zero()), R2 = R1;
+  VectorX v1 = after_normal, v2 = after_normal;
+  const NlgsStats f1 =
+      solveFrictionStage(packed, solver, options, lambda_N, delta1, tangent1, v1, ws, &R1);
+  const NlgsStats f2 =
+      solveFrictionStage(generic, solver, options, lambda_N, delta2, tangent2, v2, ws, &R2);
+  EXPECT_GT(f1.iterations, 1);
+  EXPECT_EQ(f1.iterations, f2.iterations);
+  EXPECT_GT((v1 - after_normal).norm(), 1e-6 * scale);  // friction did act
+  EXPECT_LT((v1 - v2).norm(), 1e-10 * scale);
+  double friction = 0.0, rolling = 0.0;
+  for (int c = 0; c < packed.size(); ++c) {
+    friction += tangent2[c].norm();
+    rolling += R2[c].norm();
+    EXPECT_LT((tangent1[c] - tangent2[c]).norm(), 1e-10 * (1e-12 + tangent2[c].norm())) << c;
+    EXPECT_NEAR(delta1[c], delta2[c], 1e-10 * (1e-12 + std::abs(delta2[c]))) << c;
+    EXPECT_LT((R1[c] - R2[c]).norm(), 1e-10 * (1e-12 + R2[c].norm())) << c;
+  }
+  EXPECT_GT(friction, 0.0);
+  EXPECT_GT(rolling, 0.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedFrictionStage3d,
+                         ::testing::Values(TangentMode::Global, TangentMode::Local,
+                                           TangentMode::None),
+                         [](const ::testing::TestParamInfo<TangentMode>& mode) {
+                           return std::string(tangentModeName(mode.param));
+                         });
+
+}  // namespace
+}  // namespace sweep
+
+namespace sweep {
+namespace {
+
 // NNCG (Silcowitz-Hansen, Niebe & Erleben 2010) on the heap, solved cold to a tight
 // tolerance: the same answer as plain Gauss-Seidel in fewer sweeps.
 TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
