@@ -1,6 +1,7 @@
 #include "integrators/time_stepper.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -164,21 +165,30 @@ bool betweenRoots(const Model& model, const Contact& contact) {
 }
 
 // U_N of a contact from its bodies' world twists: the product of its Jacobian's normal row
-// with v, without the rows. False when a side is a body with a parent (a link of a tree).
-bool normalVelocityFromTwists(const Model& model, const Data& data, const Contact& contact,
-                              const std::vector<Vector6>& twists, double t, double& u) {
-  u = 0.0;
+// with v, without the rows, at `count` velocities at once (the normal and its moment about each
+// body's origin are formed once). False when a side is a body with a parent (a link of a tree).
+template <int count>
+bool normalVelocitiesFromTwists(const Model& model, const Data& data, const Contact& contact,
+                                const std::array<const std::vector<Vector6>*, count>& twists,
+                                double t, std::array<double, count>& u) {
+  u.fill(0.0);
   for (int side = 0; side < 2; ++side) {
     const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
     const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
     const double sign = side == 0 ? -1.0 : 1.0;
     if (body.kind == BodyRef::Kind::Dynamic) {
       if (model.bodies[body.index].parent >= 0) return false;
-      const Vector6& twist = twists[body.index];
-      const Vector3 lever = point - data.world_pose[body.index].translation;
-      u += sign * contact.normal.dot(twist.tail<3>() + twist.head<3>().cross(lever));
+      // n . (v + w x lever) = n . v + (lever x n) . w
+      const Vector3 moment =
+          (point - data.world_pose[body.index].translation).cross(contact.normal);
+      for (int i = 0; i < count; ++i) {
+        const Vector6& twist = (*twists[i])[body.index];
+        u[i] += sign * (contact.normal.dot(twist.tail<3>()) + moment.dot(twist.head<3>()));
+      }
     } else if (body.kind == BodyRef::Kind::Driven) {
-      u += sign * contact.normal.dot(model.driven_bodies[body.index].pointVelocity(point, t));
+      const double driven =
+          sign * contact.normal.dot(model.driven_bodies[body.index].pointVelocity(point, t));
+      for (int i = 0; i < count; ++i) u[i] += driven;
     }
   }
   return true;
@@ -246,11 +256,11 @@ void TimeStepper::assemble() {
     const Contact& contact = cdata_.contacts[id];
     if (settings_.normal_law == NormalLaw::Vel || contact.gap <= near || carriedImpulse(contact))
       continue;
-    double u_start, u_free, u_pushed;
-    if (!normalVelocityFromTwists(model_, data_, contact, start_twist_, t_m, u_start)) continue;
-    normalVelocityFromTwists(model_, data_, contact, free_twist_, t_m, u_free);
-    normalVelocityFromTwists(model_, data_, contact, end_twist_, t_m, u_pushed);
-    if (leaveOut(contact, u_start, u_free, u_pushed, screening_bias_[id]))
+    std::array<double, 3> u;  // at the start, contact-free, contact-free plus the last push
+    if (!normalVelocitiesFromTwists<3>(model_, data_, contact,
+                                       {&start_twist_, &free_twist_, &end_twist_}, t_m, u))
+      continue;
+    if (leaveOut(contact, u[0], u[1], u[2], screening_bias_[id]))
       unassembled_[id] = deferred_[id] = 1;
   }
   stats_.t_assemble += seconds(start);
@@ -351,9 +361,9 @@ int TimeStepper::admitViolators() {
   for (int id = 0; id < static_cast<int>(deferred_.size()); ++id) {
     if (!deferred_[id]) continue;
     if (unassembled_[id]) {
-      double u_end = 0.0;
-      normalVelocityFromTwists(model_, data_, cdata_.contacts[id], end_twist_, t_m, u_end);
-      if (tau * (u_end + screening_bias_[id]) < -slack) {
+      std::array<double, 1> u_end;
+      normalVelocitiesFromTwists<1>(model_, data_, cdata_.contacts[id], {&end_twist_}, t_m, u_end);
+      if (tau * (u_end[0] + screening_bias_[id]) < -slack) {
         deferred_[id] = unassembled_[id] = 0;
         jacobian_stale_ = true;  // its rows are built before the next solve
         ++admitted;
