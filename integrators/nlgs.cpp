@@ -743,6 +743,33 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
   if (!any) return stats;
 
+  // The tangential velocity the local problem acts on, its operator A, and (GLOBAL) the held
+  // row's normal drift from its stage-5a velocity; true when the row is held (bilateral).
+  auto tangentialPart = [&](int c, const Vector3& u, const Matrix3& W, Vector2& uT, Matrix2& A,
+                            double& drift) {
+    const Vector2& coupling = ws.coupling[c];
+    uT = Vector2(u.y(), dT == 2 ? u.z() : 0.0) - ws.offset[c];
+    A = ws.schur[c];
+    drift = 0.0;
+    switch (options.tangents) {
+      case TangentMode::Global:
+        drift = u.x() - ws.held_normal[c];
+        // eliminating the normal correction leaves the Schur complement
+        uT -= coupling * drift;
+        return held(c);
+      case TangentMode::Local:
+        uT -= coupling * u.x();
+        return false;
+      case TangentMode::None:
+        A = W.block<2, 2>(1, 1);
+        if (p.dimension == 2) {
+          A(0, 1) = A(1, 0) = 0.0;
+          A(1, 1) = 1.0;
+        }
+        return false;
+    }
+    return false;
+  };
   int count = 0;  // rows of the current island, in ws.order
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
   // The update below on the packed 2D rows: one tangent, so the local problem is a clamp
@@ -815,19 +842,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       }
       Vector3 dP = Vector3::Zero();
       if (friction_row) {
-        const Vector2& coupling = ws.coupling[c];
-        Vector2 uT = Vector2(u.y(), u.z()) - ws.offset[c];
-        Matrix2 A = ws.schur[c];
-        const bool bilateral = options.tangents == TangentMode::Global && held(c);
-        double drift = 0.0;
-        if (options.tangents == TangentMode::Global) {
-          drift = u.x() - ws.held_normal[c];
-          uT -= coupling * drift;
-        } else if (options.tangents == TangentMode::Local) {
-          uT -= coupling * u.x();
-        } else {
-          A = r.W.block<2, 2>(1, 1);
-        }
+        Vector2 uT;
+        Matrix2 A;
+        double drift;
+        const bool bilateral = tangentialPart(c, u, r.W, uT, A, drift);
         const Vector2 dl =
             omega * (minimizeOnDisc(A, lambda_T[c], uT, ws.threshold[c]) - lambda_T[c]);
         dP = tangentMap(c, dl);
@@ -863,32 +881,11 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
           rollingUpdate(p, c, lambda_N[c], settings.relaxation, (*R)[c], v, change2, size2);
       }
       if (ws.threshold[c] <= 0.0 && !held(c)) continue;
-      const Vector2& coupling = ws.coupling[c];
       const Matrix3& W = p.delassus[c];
-      const Vector3 u = p.localVelocity(c, v);
-      Vector2 uT(u.y(), dT == 2 ? u.z() : 0.0);
-      uT -= ws.offset[c];
-      Matrix2 A = ws.schur[c];
-      bool bilateral = false;
-      double drift = 0.0;
-      switch (options.tangents) {
-        case TangentMode::Global:
-          bilateral = held(c);
-          drift = u.x() - ws.held_normal[c];
-          // eliminating the normal correction leaves the Schur complement
-          uT -= coupling * drift;
-          break;
-        case TangentMode::Local:
-          uT -= coupling * u.x();
-          break;
-        case TangentMode::None:
-          A = W.block<2, 2>(1, 1);
-          if (p.dimension == 2) {
-            A(0, 1) = A(1, 0) = 0.0;
-            A(1, 1) = 1.0;
-          }
-          break;
-      }
+      Vector2 uT;
+      Matrix2 A;
+      double drift;
+      const bool bilateral = tangentialPart(c, p.localVelocity(c, v), W, uT, A, drift);
       double radius = ws.threshold[c];
       Vector2 target;
       if (p.dimension == 2) {

@@ -409,12 +409,8 @@ TEST_P(PackedRows, SameAnswerAsTheGenericRows) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedRows,
-                         ::testing::Values(TangentMode::Global, TangentMode::Local,
-                                           TangentMode::None),
-                         [](const ::testing::TestParamInfo<TangentMode>& mode) {
-                           return std::string(tangentModeName(mode.param));
-                         });
+INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedRows, test::allTangentModes(),
+                         test::tangentModeTestName);
 
 }  // namespace
 }  // namespace sweep
@@ -526,12 +522,8 @@ TEST_P(PackedFrictionStage3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   EXPECT_GT(rolling, 0.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedFrictionStage3d,
-                         ::testing::Values(TangentMode::Global, TangentMode::Local,
-                                           TangentMode::None),
-                         [](const ::testing::TestParamInfo<TangentMode>& mode) {
-                           return std::string(tangentModeName(mode.param));
-                         });
+INSTANTIATE_TEST_SUITE_P(AllTangentModes, PackedFrictionStage3d, test::allTangentModes(),
+                         test::tangentModeTestName);
 
 }  // namespace
 }  // namespace sweep

@@ -87,4 +87,12 @@ inline std::string schemeTestName(const ::testing::TestParamInfo<Scheme>& info) 
   return info.param == Scheme::MoreauJean ? "MoreauJean" : "CatchingUp";
 }
 
+// Test-name suffix of a tangent-mode parameter, and every tangent mode of scheme B's stage 5b.
+inline std::string tangentModeTestName(const ::testing::TestParamInfo<TangentMode>& info) {
+  return tangentModeName(info.param);
+}
+inline auto allTangentModes() {
+  return ::testing::Values(TangentMode::Global, TangentMode::Local, TangentMode::None);
+}
+
 }  // namespace sweep::test
