@@ -87,7 +87,7 @@ void ContactProblem::pack3d() {
     }
     row.end = static_cast<int>(h3d.size());
     row.minv_begin = static_cast<int>(minv3d.size());
-    for (int k = minv_begin[c]; k < (diagonal_row ? minv_begin[c] : minv_begin[c + 1]); ++k) {
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) {  // none in a diagonal row
       PackedEntry3d entry{minv_h[k].x(), minv_h[k].y(), minv_h[k].z(), 0.0, 0.0, 0.0, minv_dof[k]};
       if (rolling) {
         entry.rolling1 = rolling_minv_h[k].x();
@@ -211,7 +211,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       for (int comp : ws.touched) {
         const Component& component = model.components[comp];
         if (data.has_constant_inverse6[comp]) {
-          // a free body off its principal axes: fixed-size work
+          // a free body in a row with a tree, or off its principal axes: fixed-size work
           Eigen::Matrix<double, 6, 5> rhs = Eigen::Matrix<double, 6, 5>::Zero();
           for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
             if (ws.dof_component[p.dof[k]] != comp) continue;
