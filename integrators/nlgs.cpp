@@ -139,15 +139,21 @@ Vector2 rollingTarget(const ContactProblem& p, int c, double normal_impulse, con
   return minimizeOnDisc(W, R, u, radius);
 }
 
-void rollingUpdate(const ContactProblem& p, int c, double normal_impulse, double omega, Vector2& R,
-                   VectorX& v, double& change2, double& size2) {
-  const Vector2 target = rollingTarget(p, c, normal_impulse, R, p.rollingVelocity(c, v));
-  const Vector2 dR = omega * (target - R);
-  p.applyRolling(c, dR, v);
+// One relaxed update of a rolling row at rolling velocity u; returns the change dR.
+Vector2 rollingStep(const ContactProblem& p, int c, double normal_impulse, double omega,
+                    const Vector2& u, Vector2& R, double& change2, double& size2) {
+  const Vector2 dR = omega * (rollingTarget(p, c, normal_impulse, R, u) - R);
   R += dR;
   const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
   change2 += dR.squaredNorm() / lever2;
   size2 += R.squaredNorm() / lever2;
+  return dR;
+}
+
+void rollingUpdate(const ContactProblem& p, int c, double normal_impulse, double omega, Vector2& R,
+                   VectorX& v, double& change2, double& size2) {
+  const Vector2 u = p.rollingVelocity(c, v);
+  p.applyRolling(c, rollingStep(p, c, normal_impulse, omega, u, R, change2, size2), v);
 }
 
 // natural-map residual of the rolling rows, in the same units
@@ -832,12 +838,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       packedVelocity3d(r, h, v, u, u_rolling);
       Vector2 dR = Vector2::Zero();
       if (rolling_row) {
-        Vector2& R_c = (*R)[c];
-        dR = omega * (rollingTarget(p, c, lambda_N[c], R_c, u_rolling) - R_c);
-        R_c += dR;
-        const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
-        change2 += dR.squaredNorm() / lever2;
-        size2 += R_c.squaredNorm() / lever2;
+        dR = rollingStep(p, c, lambda_N[c], omega, u_rolling, (*R)[c], change2, size2);
         u += r.rolling_coupling.transpose() * dR;
       }
       Vector3 dP = Vector3::Zero();
