@@ -38,6 +38,9 @@ const char* nlgsAccelerationName(NlgsAcceleration acceleration) {
 const char* frictionThresholdName(FrictionThreshold threshold) {
   return threshold == FrictionThreshold::Physical ? "physical" : "metric";
 }
+const char* openContactsName(OpenContacts open) {
+  return open == OpenContacts::Unilateral ? "unilateral" : "free";
+}
 
 void NlgsSettings::validate(const std::string& owner) const {
   const auto show = formatValue;
@@ -694,6 +697,19 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // frictionless ones (mu = 0 pairs, joint limits) included: friction elsewhere must not
   // push them open or closed
   auto held = [&](int c) { return options.tangents == TangentMode::Global && lambda_N[c] > 0.0; };
+  // The other rows keep stage 5a's normal law, U_N + bias >= 0 _|_ delta >= 0
+  // (OpenContacts::Unilateral): without it, friction at the held rows drives bodies into the
+  // contacts 5a left open, and under VEL nothing pushes them out again. In a deep powder heap
+  // that overlap grew to 38 um (docs/schemes.md, "Open contacts in stage 5b").
+  auto guarded = [&](int c) {
+    return options.tangents == TangentMode::Global &&
+           options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);
+  };
+  // a guarded row's projected Gauss-Seidel step on delta, at normal velocity u_N
+  auto guardStep = [&](int c, double u_N, double W_NN) {
+    const double target = std::max(delta[c] - (u_N + p.normal_bias[c]) / W_NN, 0.0);
+    return std::max(delta[c] + settings.relaxation * (target - delta[c]), 0.0) - delta[c];
+  };
   auto tangentMap = [&](int c, const Vector2& dl) {
     // impulse in (normal, tangents) whose generalized force is the chosen tangent times dl
     // in 2D the second tangent component of dl and of the coupling is zero
@@ -734,19 +750,23 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       ws.offset[c] = Vector2(u.y(), u.z());
     }
   }
+  bool any = false;
+  for (int c = 0; c < n; ++c)
+    any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
   for (int c = 0; c < n; ++c) {
     // a warm start must be admissible: contacts without threshold carry no friction, and
-    // the sweep skips them, so nothing may be left on them
-    if (!held(c)) delta[c] = 0.0;
+    // the sweep skips them, so nothing may be left on them; a guarded row pushes only, and
+    // only when something can move it (no sweep runs otherwise)
+    if (guarded(c))
+      delta[c] = any ? std::max(delta[c], 0.0) : 0.0;
+    else if (!held(c))
+      delta[c] = 0.0;
     if (ws.threshold[c] <= 0.0) lambda_T[c].setZero();
     Vector3 warm = tangentMap(c, lambda_T[c]);
     warm.x() += delta[c];
     p.applyImpulse(c, warm, v);
   }
   warmStartRolling(p, R, v);
-  bool any = false;
-  for (int c = 0; c < n; ++c)
-    any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
   if (!any) return stats;
 
   // The tangential velocity the local problem acts on, its operator A, and (GLOBAL) the held
@@ -786,10 +806,19 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
       const double radius = ws.threshold[c];
-      if (radius <= 0.0 && !held(c)) continue;
+      const bool guard_row = guarded(c);
+      if (radius <= 0.0 && !held(c) && !guard_row) continue;
       const ContactProblem::PackedRow2d& r = p.rows2d[c];
       Vector2 u = r.known;
       for (int e = r.begin; e < r.end; ++e) u += Vector2(h[e].normal, h[e].tangent) * v[h[e].dof];
+      if (guard_row) {
+        const double dd = guardStep(c, u.x(), r.W(0, 0));
+        for (int e = r.minv_begin; e < r.minv_end; ++e) v[minv[e].dof] += minv[e].normal * dd;
+        delta[c] += dd;
+        change2 += dd * dd;
+        size2 += delta[c] * delta[c];
+        continue;
+      }
       const double coupling = ws.coupling[c].x();
       double uT = u.y() - ws.offset[c].x();
       double A = ws.schur[c](0, 0);
@@ -831,7 +860,8 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       const int c = ws.order[k];
       const bool rolling_row = hasRollingRow(p, R, c);
       const bool friction_row = ws.threshold[c] > 0.0 || held(c);
-      if (!rolling_row && !friction_row) continue;
+      const bool guard_row = guarded(c);
+      if (!rolling_row && !friction_row && !guard_row) continue;
       const ContactProblem::PackedRow3d& r = p.rows3d[c];
       Vector3 u;
       Vector2 u_rolling;
@@ -858,6 +888,11 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
         lambda_T[c] += dl;
         change2 += dP.squaredNorm();
         size2 += lambda_T[c].squaredNorm() + delta[c] * delta[c];
+      } else if (guard_row) {
+        dP.x() = guardStep(c, u.x(), r.W(0, 0));
+        delta[c] += dP.x();
+        change2 += dP.x() * dP.x();
+        size2 += delta[c] * delta[c];
       }
       applyPacked3d(r, h, minv, dP, dR, v);
     }
@@ -880,6 +915,24 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
           rollingResidual(p, c, lambda_N[c], (*R)[c], v, f2, scale2);
         else
           rollingUpdate(p, c, lambda_N[c], settings.relaxation, (*R)[c], v, change2, size2);
+      }
+      if (guarded(c)) {
+        const double W_NN = p.delassus[c](0, 0);
+        const double u_N = p.localVelocity(c, v).x();
+        if (residual_only) {
+          // the natural map of the unilateral row, an impulse as in scheme A's residual
+          const double xi = (u_N + p.normal_bias[c]) / W_NN;
+          const double f = delta[c] - std::max(delta[c] - xi, 0.0);
+          f2 += f * f;
+          scale2 += std::max(delta[c] * delta[c], xi * xi);
+          continue;
+        }
+        const double dd = guardStep(c, u_N, W_NN);
+        p.applyImpulse(c, Vector3(dd, 0.0, 0.0), v);
+        delta[c] += dd;
+        change2 += dd * dd;
+        size2 += delta[c] * delta[c];
+        continue;
       }
       if (ws.threshold[c] <= 0.0 && !held(c)) continue;
       const Matrix3& W = p.delassus[c];

@@ -101,12 +101,23 @@ enum class FrictionThreshold {
   Physical,  // |lambda_T| <= mu lambda_N on physical impulses
   Metric,    // |R_T|_{M^-1} <= mu |R_N|_{M^-1}
 };
+// GLOBAL mode, stage 5b: the contacts stage 5a left without a normal impulse (open, or closed
+// with none) [R]
+enum class OpenContacts {
+  Unilateral,  // each gets a normal correction delta >= 0 and the stage-5a normal law: friction
+               // elsewhere may open such a contact but not push it closed past its law
+  Free,        // nothing holds them (the reconstruction as written): friction may drive bodies
+               // into them, and VEL never pushes the overlap back out
+};
+
 const char* tangentModeName(TangentMode mode);
 const char* frictionThresholdName(FrictionThreshold threshold);
+const char* openContactsName(OpenContacts open);
 
 struct FrictionStageOptions {
   TangentMode tangents = TangentMode::Global;
   FrictionThreshold threshold = FrictionThreshold::Physical;
+  OpenContacts open_contacts = OpenContacts::Unilateral;
   // GLOBAL's residual measures each held row's normal drift against the normal impulse the
   // row carries; false: against the tangential impulses only (the rule before 2026-11-23,
   // which swept rows without friction to the cap; docs/schemes.md)
@@ -115,7 +126,8 @@ struct FrictionStageOptions {
 
 // Stage 5b. rolling: as for solveCoulombNlgs, the bound taken from the stage-5a lambda_N.
 // lambda_N: the normal impulses of stage 5a (thresholds mu lambda_N). delta: in the
-// warm start, out the bilateral normal corrections of GLOBAL mode (zero otherwise).
+// warm start, out the normal corrections of GLOBAL mode (zero otherwise): bilateral on the
+// contacts with lambda_N > 0, >= 0 on the others (OpenContacts::Unilateral).
 // lambda_T: in the warm start, out the tangential impulses. v: in v1 (after 5a), out v2.
 // The impulse on the rows H of contact c is then
 //   (lambda_N + delta + tangentNormalPart(...), lambda_T).

@@ -36,8 +36,12 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
       << " s, t_end = " << file.run.t_end << " s, normal law "
       << sweep::normalLawName(s.normal_law);
   if (s.scheme == sweep::Scheme::CatchingUp)
-    out << ", tangents " << sweep::tangentModeName(s.friction.tangents) << ", threshold "
-        << sweep::frictionThresholdName(s.friction.threshold) << ", caps "
+    out << ", tangents " << sweep::tangentModeName(s.friction.tangents)
+        << (s.friction.tangents == sweep::TangentMode::Global
+                ? std::string(" (open contacts ") +
+                      sweep::openContactsName(s.friction.open_contacts) + ")"
+                : std::string())
+        << ", threshold " << sweep::frictionThresholdName(s.friction.threshold) << ", caps "
         << s.normal_stage.max_iterations << " + " << s.friction_stage.max_iterations;
   else
     out << ", cap " << s.coulomb.max_iterations;

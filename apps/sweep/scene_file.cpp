@@ -672,8 +672,9 @@ class SceneParser {
   }
 
   void parseScheme(const YamlField& f) {
-    f.allowOnly({"name", "normal_law", "tangents", "threshold", "coulomb", "normal_stage",
-                 "friction_stage", "screening", "screening_rounds", "screening_gap"});
+    f.allowOnly({"name", "normal_law", "tangents", "threshold", "open_contacts", "coulomb",
+                 "normal_stage", "friction_stage", "screening", "screening_rounds",
+                 "screening_gap"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -706,6 +707,13 @@ class SceneParser {
       s.friction.threshold = FrictionThreshold::Metric;
     else
       f["threshold"].fail("must be physical or metric");
+    const std::string open_contacts = f.text("open_contacts", "unilateral");
+    if (open_contacts == "unilateral")
+      s.friction.open_contacts = OpenContacts::Unilateral;
+    else if (open_contacts == "free")
+      s.friction.open_contacts = OpenContacts::Free;
+    else
+      f["open_contacts"].fail("must be unilateral or free");
     s.screening = f.boolean("screening", s.screening);
     const long rounds = f.integer("screening_rounds", s.screening_rounds);
     if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
@@ -1034,6 +1042,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "normal_law" << YAML::Value << law;
   out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
   out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
+  out << YAML::Key << "open_contacts" << YAML::Value << openContactsName(s.friction.open_contacts);
   emitSolver(out, "coulomb", s.coulomb);
   emitSolver(out, "normal_stage", s.normal_stage);
   emitSolver(out, "friction_stage", s.friction_stage);

@@ -93,10 +93,11 @@ TEST_F(InScenesFolder, SmallBoxBuildsWhatItSays) {
 
 TEST_F(InScenesFolder, OverridesReachTheScene) {
   const SceneFile file = loadSceneFile(
-      "small_box.yaml",
-      {"time.step=5e-5", "scheme.normal_law=pos", "generators[0].count=10", "contact.friction=0"});
+      "small_box.yaml", {"time.step=5e-5", "scheme.normal_law=pos", "generators[0].count=10",
+                         "contact.friction=0", "scheme.open_contacts=free"});
   EXPECT_DOUBLE_EQ(file.run.scheme.h, 5e-5);
   EXPECT_EQ(file.run.scheme.normal_law, NormalLaw::Pos);
+  EXPECT_EQ(file.run.scheme.friction.open_contacts, OpenContacts::Free);
   EXPECT_EQ(file.spec.bodies.size(), 10u + 4u);
   EXPECT_DOUBLE_EQ(file.spec.default_law.friction, 0.0);
   // a typo is caught by the same validation as the file itself
@@ -152,6 +153,7 @@ TEST(SceneFile, ExportedFunnelLoadsBackToTheSameScene) {
     EXPECT_EQ(a.motion.removal_time, b.motion.removal_time);
   }
   EXPECT_EQ(back.run.scheme.h, file.run.scheme.h);
+  EXPECT_EQ(back.run.scheme.friction.open_contacts, file.run.scheme.friction.open_contacts);
   // and the two run identically
   RunSettings settings = file.run;
   settings.t_end = 0.005;

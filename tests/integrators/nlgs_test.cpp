@@ -348,6 +348,71 @@ TEST(ResidualCheck, FrictionStageMeasuresHeldRowsAgainstTheirNormalImpulse) {
   EXPECT_LT(sweeps[0], sweeps[1]);
 }
 
+// GLOBAL holds the normal velocities of the contacts stage 5a closed; friction there still
+// moves bodies towards the contacts 5a left without an impulse. OpenContacts::Unilateral keeps
+// 5a's normal law on those (U_N + bias >= 0 _|_ delta >= 0), Free lets friction break it. On
+// a pile whose grains all spin at 500 rad/s (0.5 m/s at their rims: friction at the floor,
+// the walls and between grains turns spin into sliding and rolling), the guarded stage leaves no
+// row below its law beyond the tolerance, and the free one does, by orders of magnitude more.
+TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
+  const test::SettledProblem pile =
+      test::settledPile(150, 1500, NormalLaw::Iqs, Scheme::CatchingUp);
+  const Scene& scene = pile.scene;
+  const ContactProblem& p = pile.step.problem;
+  ASSERT_GT(p.size(), 150);
+  VectorX v_free = pile.step.v_free;
+  for (const Body& body : scene.model.bodies) v_free[body.v_index + 2] += 500.0;  // spin
+  NlgsWorkspace ws;
+  ws.prepare(p.size(), scene.model.nv);
+  NlgsSettings solver;
+  solver.max_iterations = 20000;
+  solver.tolerance = 1e-8;
+  std::vector<double> lambda_N(p.size(), 0.0);
+  VectorX v1 = v_free;
+  ASSERT_EQ(solveNormalStage(p, solver, lambda_N, v1, ws).status, SolverStatus::Converged);
+  int open = 0;
+  for (int c = 0; c < p.size(); ++c) open += lambda_N[c] > 0.0 ? 0 : 1;
+  ASSERT_GE(open, 5);
+  // the worst violation of U_N + bias >= 0, as an impulse (U / W_NN), against the largest
+  // normal impulse of the step
+  auto worstViolation = [&](const VectorX& v) {
+    double worst = 0.0, largest = 0.0;
+    for (int c = 0; c < p.size(); ++c) {
+      const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / p.delassus[c](0, 0);
+      worst = std::max(worst, -xi);
+      largest = std::max(largest, lambda_N[c]);
+    }
+    return worst / largest;
+  };
+  ASSERT_LT(worstViolation(v1), 1e-5);
+  std::vector<double> worst;
+  for (OpenContacts mode : {OpenContacts::Unilateral, OpenContacts::Free}) {
+    FrictionStageOptions options;
+    options.open_contacts = mode;
+    std::vector<double> delta(p.size(), 0.0);
+    std::vector<Vector2> lambda_T(p.size(), Vector2::Zero());
+    VectorX v = v1;
+    const NlgsStats stats =
+        solveFrictionStage(p, solver, options, lambda_N, delta, lambda_T, v, ws);
+    EXPECT_EQ(stats.status, SolverStatus::Converged) << openContactsName(mode);
+    EXPECT_GT((v - v1).norm(), 1e-3 * v1.norm()) << "friction must act";
+    worst.push_back(worstViolation(v));
+    double pushed = 0.0;
+    for (int c = 0; c < p.size(); ++c) {
+      if (lambda_N[c] > 0.0) continue;
+      EXPECT_GE(delta[c], 0.0) << c;  // a guarded row only pushes; a free one carries nothing
+      if (mode == OpenContacts::Free) {
+        EXPECT_EQ(delta[c], 0.0) << c;
+      }
+      pushed += delta[c];
+    }
+    std::printf("%s: %d sweeps, worst violation %.2e, open rows' impulse %.3e\n",
+                openContactsName(mode), stats.iterations, worst.back(), pushed);
+  }
+  EXPECT_LT(worst[0], 1e-5);  // measured 4e-7
+  EXPECT_GT(worst[1], 1e-3);  // measured 6e-3
+}
+
 }  // namespace
 }  // namespace sweep
 
