@@ -17,18 +17,22 @@ int main() {
     Scheme scheme;
     TangentMode tangents;
     NormalLaw law;
+    OpenContacts open = OpenContacts::Unilateral;  // GLOBAL's stage 5b
   };
   const Flags runs[] = {
       {Scheme::MoreauJean, TangentMode::Global, NormalLaw::Vel},
       {Scheme::MoreauJean, TangentMode::Global, NormalLaw::Pos},
       {Scheme::CatchingUp, TangentMode::Global, NormalLaw::Vel},
+      {Scheme::CatchingUp, TangentMode::Global, NormalLaw::Vel, OpenContacts::Free},
       {Scheme::CatchingUp, TangentMode::Global, NormalLaw::Pos},
+      {Scheme::CatchingUp, TangentMode::Global, NormalLaw::Pos, OpenContacts::Free},
       {Scheme::CatchingUp, TangentMode::Local, NormalLaw::Vel},
       {Scheme::CatchingUp, TangentMode::Local, NormalLaw::Iqs},
       {Scheme::CatchingUp, TangentMode::Local, NormalLaw::Pos},
   };
   std::printf(
-      "scheme,tangents,law,mean_sweeps_1,mean_sweeps_2,max_sweeps_1,max_sweeps_2,cap_hit_steps,"
+      "scheme,tangents,open_contacts,law,mean_sweeps_1,mean_sweeps_2,max_sweeps_1,max_sweeps_2,cap_"
+      "hit_steps,"
       "peak_penetration,cumulative_penetration,final_kinetic\n");
   const int steps = 800;
   for (const Flags& flags : runs) {
@@ -37,6 +41,7 @@ int main() {
     settings.h = 2e-4;
     settings.normal_law = flags.law;
     settings.friction.tangents = flags.tangents;
+    settings.friction.open_contacts = flags.open;
     TimeStepper stepper(scene.model, scene.cmodel, settings);
     stepper.reset(0.0, scene.q0, scene.v0);
     long sweeps1 = 0, sweeps2 = 0;
@@ -52,11 +57,13 @@ int main() {
       peak = std::max(peak, s.penetration_max);
       cumulative += s.penetration_sum;
     }
-    std::printf("%s,%s,%s,%.0f,%.0f,%d,%d,%d,%.3g,%.3g,%.3g\n", schemeName(flags.scheme),
+    const bool global_b =
+        flags.scheme == Scheme::CatchingUp && flags.tangents == TangentMode::Global;
+    std::printf("%s,%s,%s,%s,%.0f,%.0f,%d,%d,%d,%.3g,%.3g,%.3g\n", schemeName(flags.scheme),
                 flags.scheme == Scheme::CatchingUp ? tangentModeName(flags.tangents) : "-",
-                normalLawName(flags.law), static_cast<double>(sweeps1) / steps,
-                static_cast<double>(sweeps2) / steps, max1, max2, caps, peak, cumulative,
-                stepper.stats().kinetic);
+                global_b ? openContactsName(flags.open) : "-", normalLawName(flags.law),
+                static_cast<double>(sweeps1) / steps, static_cast<double>(sweeps2) / steps, max1,
+                max2, caps, peak, cumulative, stepper.stats().kinetic);
     std::fflush(stdout);
   }
 }

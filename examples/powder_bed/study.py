@@ -69,6 +69,19 @@ VARIANTS = {
                            ["scheme.name=catching-up", "scheme.normal_stage.tolerance=1e-4",
                             "scheme.friction_stage.tolerance=1e-4",
                             "scheme.friction_stage.max_iterations=150"]),
+    # the staggered scheme as the powder notes run it (both stages NNCG at 1e-3), with the
+    # contacts stage 5a leaves open guarded in stage 5b (the default) or free
+    "catching-up-1e-3": ("staggered, tolerance 1e-3",
+                         ["scheme.name=catching-up", "scheme.normal_stage.tolerance=1e-3",
+                          "scheme.friction_stage.tolerance=1e-3",
+                          "scheme.normal_stage.acceleration=nncg",
+                          "scheme.friction_stage.acceleration=nncg"]),
+    "catching-up-free": ("staggered, tolerance 1e-3, open contacts free",
+                         ["scheme.name=catching-up", "scheme.normal_stage.tolerance=1e-3",
+                          "scheme.friction_stage.tolerance=1e-3",
+                          "scheme.normal_stage.acceleration=nncg",
+                          "scheme.friction_stage.acceleration=nncg",
+                          "scheme.open_contacts=free"]),
     "pos": ("Jean-Moreau with the POS law", ["scheme.normal_law=pos"]),
     # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
     "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
