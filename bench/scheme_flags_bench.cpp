@@ -31,9 +31,8 @@ int main() {
       {Scheme::CatchingUp, TangentMode::Local, NormalLaw::Pos},
   };
   std::printf(
-      "scheme,tangents,open_contacts,law,mean_sweeps_1,mean_sweeps_2,max_sweeps_1,max_sweeps_2,cap_"
-      "hit_steps,"
-      "peak_penetration,cumulative_penetration,final_kinetic\n");
+      "scheme,tangents,open_contacts,law,mean_sweeps_1,mean_sweeps_2,max_sweeps_1,max_sweeps_2,"
+      "cap_hit_steps,peak_penetration,cumulative_penetration,final_kinetic\n");
   const int steps = 800;
   for (const Flags& flags : runs) {
     SchemeSettings settings;

@@ -705,10 +705,16 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     return options.tangents == TangentMode::Global &&
            options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);
   };
-  // a guarded row's projected Gauss-Seidel step on delta, at normal velocity u_N
-  auto guardStep = [&](int c, double u_N, double W_NN) {
+  // a guarded row's projected Gauss-Seidel step on delta, at normal velocity u_N: updates
+  // delta and the sweep's measures, returns the change (v is the caller's to update)
+  auto guardStep = [&](int c, double u_N, double W_NN, double& change2, double& size2) {
     const double target = std::max(delta[c] - (u_N + p.normal_bias[c]) / W_NN, 0.0);
-    return std::max(delta[c] + settings.relaxation * (target - delta[c]), 0.0) - delta[c];
+    const double dd =
+        std::max(delta[c] + settings.relaxation * (target - delta[c]), 0.0) - delta[c];
+    delta[c] += dd;
+    change2 += dd * dd;
+    size2 += delta[c] * delta[c];
+    return dd;
   };
   auto tangentMap = [&](int c, const Vector2& dl) {
     // impulse in (normal, tangents) whose generalized force is the chosen tangent times dl
@@ -812,11 +818,8 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       Vector2 u = r.known;
       for (int e = r.begin; e < r.end; ++e) u += Vector2(h[e].normal, h[e].tangent) * v[h[e].dof];
       if (guard_row) {
-        const double dd = guardStep(c, u.x(), r.W(0, 0));
+        const double dd = guardStep(c, u.x(), r.W(0, 0), change2, size2);
         for (int e = r.minv_begin; e < r.minv_end; ++e) v[minv[e].dof] += minv[e].normal * dd;
-        delta[c] += dd;
-        change2 += dd * dd;
-        size2 += delta[c] * delta[c];
         continue;
       }
       const double coupling = ws.coupling[c].x();
@@ -889,10 +892,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
         change2 += dP.squaredNorm();
         size2 += lambda_T[c].squaredNorm() + delta[c] * delta[c];
       } else if (guard_row) {
-        dP.x() = guardStep(c, u.x(), r.W(0, 0));
-        delta[c] += dP.x();
-        change2 += dP.x() * dP.x();
-        size2 += delta[c] * delta[c];
+        dP.x() = guardStep(c, u.x(), r.W(0, 0), change2, size2);
       }
       applyPacked3d(r, h, minv, dP, dR, v);
     }
@@ -927,11 +927,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
           scale2 += std::max(delta[c] * delta[c], xi * xi);
           continue;
         }
-        const double dd = guardStep(c, u_N, W_NN);
-        p.applyImpulse(c, Vector3(dd, 0.0, 0.0), v);
-        delta[c] += dd;
-        change2 += dd * dd;
-        size2 += delta[c] * delta[c];
+        p.applyImpulse(c, Vector3(guardStep(c, u_N, W_NN, change2, size2), 0.0, 0.0), v);
         continue;
       }
       if (ws.threshold[c] <= 0.0 && !held(c)) continue;
