@@ -59,6 +59,11 @@ struct DetectionSettings {
   //   margin = speed_factor * h * (largest speed of a shape point) + floor,
   // so that every contact that can close during the step is in the solve.
   double speed_factor = 2.0;
+  // After the solve, check the margin against the end velocities: a pair left out had a gap
+  // of at least the margin at q_m, and closes by q_{k+1} only if h * (fastest end speed)
+  // exceeds it. A step that fails is detected and solved again with the end speed's margin
+  // (speed_factor times it), so that speed_factor: 1 is safe to use.
+  bool verify_margin = true;
   // < 0: automatic, 1e-3 times the smallest size (radius or half extent) of a moving shape
   double floor = -1.0;
   // pairs of bodies in the same articulated component (self-collision of a robot)

@@ -81,8 +81,8 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
   }
 }
 
-double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
-                       double t) {
+double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
+                         double t) {
   double fastest = 0.0;
   for (const Geometry& g : cmodel.geometries) {
     Vector6 twist = Vector6::Zero();
@@ -93,7 +93,13 @@ double detectionMargin(const Model& model, const Data& data, const ContactModel&
         isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
     fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
   }
-  return cmodel.settings.speed_factor * h * fastest + cmodel.margin_floor;
+  return fastest;
+}
+
+double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
+                       double t) {
+  return cmodel.settings.speed_factor * h * fastestShapeSpeed(model, data, cmodel, t) +
+         cmodel.margin_floor;
 }
 
 namespace {

@@ -62,7 +62,12 @@ struct ContactData {
 void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
                          ContactData& cdata);
 
-// margin = speed_factor * h * (largest speed of a shape point at (q, v) and t) + floor.
+// Largest speed of a shape point at (q, v) and t: |v_origin| + |w| * reach per geometry.
+// Needs forwardKinematics(model, data, q, v).
+double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
+                         double t);
+
+// margin = speed_factor * h * fastestShapeSpeed + floor.
 // Needs forwardKinematics(model, data, q, v).
 double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
                        double t);

@@ -96,9 +96,26 @@ const StepStats& TimeStepper::step() {
   midpoint();      // 1
   detect();        // 2
   freeVelocity();  // 4 (M(q_m) is factored here; stage 3 needs it)
-  assemble();      // 3
-  solve();         // 5
-  update();        // 6
+  if (cmodel_.settings.verify_margin) {
+    contact_dv_start_ = contact_dv_;
+    limit_impulse_start_ = limit_impulse_;
+    limit_staged_start_ = limit_staged_;
+  }
+  assemble();  // 3
+  solve();     // 5
+  stats_.redetections = 0;
+  stats_.margin_outrun = false;
+  if (cmodel_.settings.verify_margin) {
+    for (double needed = marginNeeded(); needed > 0.0; needed = marginNeeded()) {
+      if (stats_.redetections == kMaxRedetections) {
+        stats_.margin_outrun = true;
+        break;
+      }
+      ++stats_.redetections;
+      redoStep(needed);
+    }
+  }
+  update();  // 6
   diagnose();
   // periodic boundaries: bodies that left the cell re-enter at the other side; after the
   // diagnostics, which evaluate the gaps of this step's contacts on this step's images
@@ -110,11 +127,13 @@ void TimeStepper::midpoint() {
   integrate(model_, q_, 0.5 * settings_.h * v_, q_m_);
 }
 
-void TimeStepper::detect() {
+void TimeStepper::detect(double at_least) {
   const auto start = Clock::now();
   const double t_m = t_ + 0.5 * settings_.h;
   forwardKinematics(model_, data_, q_m_, v_);
-  const double margin = detectionMargin(model_, data_, cmodel_, settings_.h, t_m);
+  const double margin =
+      std::max(detectionMargin(model_, data_, cmodel_, settings_.h, t_m), at_least);
+  stats_.margin = margin;
   detectContacts(model_, data_, cmodel_, cdata_, t_m, margin);
   std::swap(impulse_, previous_impulse_);
   impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
@@ -127,6 +146,42 @@ void TimeStepper::detect() {
   solved_.assign(cdata_.contacts.size(), 0);
   stats_.candidates = static_cast<int>(cdata_.contacts.size());
   stats_.t_detect = seconds(start);
+}
+
+double TimeStepper::marginNeeded() {
+  // A pair left out had gap >= margin at q_m and moves by h/2 times its relative velocity
+  // until q_{k+1}: at most h/2 (e_a + e_b) <= h * (fastest end speed of a shape point).
+  const double t_m = t_ + 0.5 * settings_.h;
+  forwardKinematics(model_, data_, q_m_, v_free_);
+  const double reach = settings_.h * fastestShapeSpeed(model_, data_, cmodel_, t_m);
+  if (reach <= stats_.margin) return 0.0;
+  // the default rule (twice the speed) on the end velocities: one more detection, mostly
+  return 2.0 * reach + cmodel_.margin_floor;
+}
+
+void TimeStepper::redoStep(double margin) {
+  // back to the state after midpoint(): the detection swaps its lists and the warm starts
+  // with the previous step's, so swap them back first (the solve's results are discarded)
+  std::swap(cdata_.contacts, cdata_.previous);
+  std::swap(impulse_, previous_impulse_);
+  std::swap(staged_, previous_staged_);
+  if (cmodel_.rolling) std::swap(rolling_, previous_rolling_);
+  contact_dv_ = contact_dv_start_;
+  limit_impulse_ = limit_impulse_start_;
+  limit_staged_ = limit_staged_start_;
+  // the step's cost counts every solve; its other figures are those of the last
+  const StepStats before = stats_;
+  detect(margin);
+  freeVelocity();
+  assemble();
+  solve();
+  stats_.t_detect += before.t_detect;
+  stats_.t_assemble += before.t_assemble;
+  stats_.t_solve += before.t_solve;
+  stats_.updates += before.updates;
+  stats_.solves += before.solves;
+  stats_.iterations_stage1 += before.iterations_stage1;
+  stats_.iterations_stage2 += before.iterations_stage2;
 }
 
 void TimeStepper::freeVelocity() {

@@ -88,6 +88,11 @@ struct StepStats {
   int solves = 1;       // solves of the step: 1, or the rounds of candidate screening
   int deferred = 0;     // candidates left out of the last solve by screening
   int unassembled = 0;  // of which had no Jacobian rows (judged from the bodies' twists)
+  double margin = 0.0;  // detection margin of the step's last detection
+  // detection.verify_margin: detections after the first, each because the end velocities
+  // outran the margin; and whether they still did after the last one allowed
+  int redetections = 0;
+  bool margin_outrun = false;
 };
 
 // Applied generalized forces tau(t, q, v) besides gravity (which the Model carries).
@@ -101,6 +106,10 @@ class TimeStepper {
 
   void reset(double t, const VectorX& q, const VectorX& v);
   const StepStats& step();
+
+  // detection.verify_margin: detections per step after the first, at most; a step whose end
+  // velocities still outrun the margin is flagged (StepStats::margin_outrun)
+  static constexpr int kMaxRedetections = 2;
 
   double time() const { return t_; }
   const VectorX& q() const { return q_; }
@@ -118,16 +127,20 @@ class TimeStepper {
   double energy();  // kinetic + potential at the current state
 
  private:
-  void midpoint();          // 1
-  void detect();            // 2
-  void freeVelocity();      // 4
-  void assemble();          // 3: Jacobian, then the problem
-  void assembleJacobian();  // 3: rows of the contacts not unassembled
-  void assembleProblem();   // 3: the problem of the contacts not deferred, warm-started
-  void solve();             // 5, with candidate screening when set
-  void solveMoreauJean();   // 5, scheme A
-  void solveCatchingUp();   // 5, scheme B
-  void keepImpulses();      // the solve's impulses by contact: warm start of the next solve
+  void midpoint();                     // 1
+  void detect(double at_least = 0.0);  // 2, with a margin of at least `at_least`
+  // detection.verify_margin: the margin `at_least` a detection needs for the end velocities
+  // of the solve just done, or 0 when the step's margin covers them
+  double marginNeeded();
+  void redoStep(double margin);  // 2 to 5 again, from q_m
+  void freeVelocity();           // 4
+  void assemble();               // 3: Jacobian, then the problem
+  void assembleJacobian();       // 3: rows of the contacts not unassembled
+  void assembleProblem();        // 3: the problem of the contacts not deferred, warm-started
+  void solve();                  // 5, with candidate screening when set
+  void solveMoreauJean();        // 5, scheme A
+  void solveCatchingUp();        // 5, scheme B
+  void keepImpulses();           // the solve's impulses by contact: warm start of the next solve
   // contacts left out that break their law at the solve's velocities join (returns how many)
   int admitViolators();
   void update();  // 6
@@ -176,6 +189,10 @@ class TimeStepper {
   std::vector<Vector6> start_twist_, free_twist_, end_twist_;
   VectorX v_contact_free_;
   VectorX contact_dv_;  // the contacts' velocity change in the last step (screening)
+  // detection.verify_margin: the warm starts a step began with, for a step done again
+  VectorX contact_dv_start_;
+  std::vector<double> limit_impulse_start_;
+  std::vector<StagedImpulse> limit_staged_start_;
   VectorX v_predicted_;
   VectorX mass_times_v_;
   double metricKinetic(const VectorX& v);  // 1/2 v^T M(q_m) v

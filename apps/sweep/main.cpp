@@ -71,6 +71,10 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
   if (s.max_solves > 1)
     out << "  candidate screening: " << s.mean_candidates << " candidates, " << s.mean_solves
         << " solves per step (max " << s.max_solves << ")\n";
+  if (s.margin_verified)
+    out << "  detection margin checked: " << s.redetection_steps << " steps detected again, "
+        << s.margin_outrun_steps << " outran the margin after "
+        << sweep::TimeStepper::kMaxRedetections + 1 << " detections\n";
   if (s.updates > 0)
     out << "  solver: " << s.updates << " local solves, "
         << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";

@@ -254,6 +254,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   summary.scheme = schemeName(settings.scheme.scheme);
   summary.dt = h;
   summary.t_end = settings.t_end;
+  summary.margin_verified = scene.cmodel.settings.verify_margin;
   summary.energy_initial = stepper.energy();
   std::vector<int> total, stage1, stage2;
   total.reserve(steps);
@@ -287,6 +288,8 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     candidate_sum += s.candidates;
     solves_sum += s.solves;
     summary.max_solves = std::max(summary.max_solves, s.solves);
+    summary.redetection_steps += s.redetections > 0 ? 1 : 0;
+    summary.margin_outrun_steps += s.margin_outrun ? 1 : 0;
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;
@@ -384,7 +387,8 @@ void writeSummaryJson(const RunSummary& s, const std::string& path) {
     << ", \"max_active\": " << s.max_active
     << ", \"mean_candidates\": " << exactNumber(s.mean_candidates)
     << ", \"mean_solves\": " << exactNumber(s.mean_solves) << ", \"max_solves\": " << s.max_solves
-    << "},\n"
+    << ", \"redetection_steps\": " << s.redetection_steps
+    << ", \"margin_outrun_steps\": " << s.margin_outrun_steps << "},\n"
     << "  \"solver\": {\"updates\": " << s.updates
     << ", \"solve_seconds\": " << exactNumber(s.solve_seconds) << ", \"ns_per_update\": "
     << exactNumber(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0)

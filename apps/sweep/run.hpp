@@ -55,6 +55,10 @@ struct RunSummary {
   // solves per step: 1, or the rounds of candidate screening (scheme.screening)
   double mean_solves = 1.0;
   int max_solves = 1;
+  // detection.verify_margin: steps detected and solved again because their end velocities
+  // outran the margin, and steps that still did after the last detection allowed
+  bool margin_verified = false;
+  long redetection_steps = 0, margin_outrun_steps = 0;
   long updates = 0;            // local solves, all steps
   double solve_seconds = 0.0;  // time in stage 5, all steps
   double energy_initial = 0.0, energy_final = 0.0;

@@ -608,8 +608,8 @@ class SceneParser {
   }
 
   void parseDetection(const YamlField& f) {
-    f.allowOnly(
-        {"path", "speed_factor", "margin", "self_collision", "max_initial_overlap", "periodic"});
+    f.allowOnly({"path", "speed_factor", "verify_margin", "margin", "self_collision",
+                 "max_initial_overlap", "periodic"});
     DetectionSettings& d = out_.spec.detection;
     const std::string path = f.text("path", "automatic");
     if (path == "automatic")
@@ -621,6 +621,7 @@ class SceneParser {
     else
       f["path"].fail("must be automatic, analytic or fcl");
     d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
+    d.verify_margin = f.boolean("verify_margin", d.verify_margin);
     d.floor = f.nonNegative("margin", d.floor);
     d.self_collision = f.boolean("self_collision", d.self_collision);
     out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);
