@@ -61,8 +61,9 @@ struct DetectionSettings {
   double speed_factor = 2.0;
   // After the solve, check the margin against the end velocities: a pair left out had a gap
   // of at least the margin at q_m, and closes by q_{k+1} only if h * (fastest end speed)
-  // exceeds it. A step that fails is detected and solved again with the end speed's margin
-  // (speed_factor times it), so that speed_factor: 1 is safe to use.
+  // exceeds it. A step that fails is detected and solved again with twice the end speed's
+  // margin, so that a speed_factor below 2 is safe to use. Under the gap-aware laws (IQS,
+  // POS) only: VEL solves the closed contacts, which the margin does not decide.
   bool verify_margin = true;
   // < 0: automatic, 1e-3 times the smallest size (radius or half extent) of a moving shape
   double floor = -1.0;

@@ -96,7 +96,7 @@ const StepStats& TimeStepper::step() {
   midpoint();      // 1
   detect();        // 2
   freeVelocity();  // 4 (M(q_m) is factored here; stage 3 needs it)
-  if (cmodel_.settings.verify_margin) {
+  if (cmodel_.settings.verify_margin && settings_.normal_law != NormalLaw::Vel) {
     contact_dv_start_ = contact_dv_;
     limit_impulse_start_ = limit_impulse_;
     limit_staged_start_ = limit_staged_;
@@ -105,7 +105,8 @@ const StepStats& TimeStepper::step() {
   solve();     // 5
   stats_.redetections = 0;
   stats_.margin_outrun = false;
-  if (cmodel_.settings.verify_margin) {
+  // VEL solves the closed contacts only, which the margin does not decide
+  if (cmodel_.settings.verify_margin && settings_.normal_law != NormalLaw::Vel) {
     for (double needed = marginNeeded(); needed > 0.0; needed = marginNeeded()) {
       if (stats_.redetections == kMaxRedetections) {
         stats_.margin_outrun = true;

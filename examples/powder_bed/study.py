@@ -56,6 +56,14 @@ VARIANTS = {
     "screened-1e-2": ("IQS, h = 1e-4, screened, tolerance 1e-2",
                       ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                        "scheme.coulomb.tolerance=1e-2"]),
+    # the same with the detection margin at 1.25 times the fastest speed (detection.
+    # verify_margin, on by default, detects again when the end speeds outrun it), and looser
+    "fast": ("IQS, h = 1e-4, screened, tolerance 1e-2, margin 1.25 h v",
+             ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+              "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25"]),
+    "fast-3e-2": ("the same at tolerance 3e-2",
+                  ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+                   "scheme.coulomb.tolerance=3e-2", "detection.speed_factor=1.25"]),
     "h5e-6": ("h = 5e-6 s", ["time.step=5e-6"]),
     "h2e-5": ("h = 2e-5 s", ["time.step=2e-5"]),
     "h1e-6": ("h = 1e-6 s", ["time.step=1e-6"]),

@@ -511,6 +511,13 @@ TEST_P(BothSchemes, VerifiedMarginCatchesAContactTheStartSpeedMissed) {
       EXPECT_NEAR(end_gap, gap - 0.5 * h * g * h, 1e-12);
     }
   }
+  // VEL solves closed contacts only: the margin decides nothing, and nothing is redone
+  scene.cmodel.settings.verify_margin = true;
+  SchemeSettings s = settings(h);
+  s.normal_law = NormalLaw::Vel;
+  TimeStepper stepper(scene.model, scene.cmodel, s);
+  stepper.reset(0.0, scene.at(r + gap), VectorX::Zero(6));
+  EXPECT_EQ(stepper.step().redetections, 0);
 }
 
 // With every mu = 0 the friction stage is skipped, and B's frictionless stage solves the
