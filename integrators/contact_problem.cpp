@@ -196,15 +196,33 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     Matrix3 W = Matrix3::Zero();
     Matrix2 W_r = Matrix2::Zero();
     if (diagonal_row) {
-      // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass)
+      // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass).
+      // W and W_r are summed in plain arrays: Eigen's outer products went through the stack,
+      // and the stores stalled the loads of the next entry (the same products in the same
+      // order, so the same bits).
+      double w[3][3] = {}, w_r[2][2] = {};
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
         const int comp = ws.dof_component[p.dof[k]];
         const double inverse_mass =
             data.constant_inverse6[comp].diagonal()[p.dof[k] - model.components[comp].v_index];
         p.h_inverse_mass.push_back(inverse_mass);
-        W += (inverse_mass * p.h[k]) * p.h[k].transpose();
-        if (p.rolling) W_r += (inverse_mass * p.rolling_h[k]) * p.rolling_h[k].transpose();
+        const Vector3& h = p.h[k];
+        for (int i = 0; i < 3; ++i) {
+          const double scaled = inverse_mass * h[i];
+          for (int j = 0; j < 3; ++j) w[i][j] += scaled * h[j];
+        }
+        if (p.rolling) {
+          const Vector2& h_r = p.rolling_h[k];
+          for (int i = 0; i < 2; ++i) {
+            const double scaled = inverse_mass * h_r[i];
+            for (int j = 0; j < 2; ++j) w_r[i][j] += scaled * h_r[j];
+          }
+        }
       }
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) W(i, j) = w[i][j];
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
       p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
     } else {
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) p.h_inverse_mass.push_back(0.0);
