@@ -89,10 +89,15 @@ struct ContactProblem {
   // reads H once and writes v once for the contact and its rolling rows together (the rolling
   // velocity after the contact's own update is U_r + rolling_coupling dP). Filled by pack3d().
   struct PackedRow3d {
-    Matrix3 W;
-    Matrix3 W_inverse;
+    // first: all an open row that stays open reads (one cache line), see coulombUpdate3d
     Vector3 known;
     double bias = 0.0;
+    // a diagonal row (see h_inverse_mass) has no M^-1 H entries: minv_begin == minv_end, and
+    // v is updated through its H entries. On the powder bed this halves the bytes a local
+    // update reads, and the sweeps are bound by them.
+    int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
+    Matrix3 W;
+    Matrix3 W_inverse;
     double mu = 0.0;
     Eigen::Matrix<double, 2, 3> rolling_coupling = Eigen::Matrix<double, 2, 3>::Zero();
     Matrix2 rolling_W = Matrix2::Identity();
@@ -101,10 +106,6 @@ struct ContactProblem {
     // 1 / W_r(0, 0) when W_r is a multiple of the identity (spheres), else 0: the disc
     // projection is then Euclidean and closed-form
     double rolling_isotropic_inverse = 0.0;
-    // a diagonal row (see h_inverse_mass) has no M^-1 H entries: minv_begin == minv_end, and
-    // v is updated through its H entries. On the powder bed this halves the bytes a local
-    // update reads, and the sweeps are bound by them.
-    int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
   };
   struct PackedEntry3d {
     double normal = 0.0, tangent1 = 0.0, tangent2 = 0.0, rolling1 = 0.0, rolling2 = 0.0;

@@ -333,7 +333,7 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
   // U_N + bias >= 0 makes every local solver return P = 0 (then R's disc has radius 0). On a
   // screened powder pass 43 % of the updates are such rows; their normal velocity alone costs
   // a fifth of the full one. Its sum runs in the full loop's order, so nothing changes by a bit.
-  if (P.isZero(0.0) && (R == nullptr || r.rolling_bound == 0.0 || R->isZero(0.0))) {
+  if (P.isZero(0.0) && (R == nullptr || R->isZero(0.0) || r.rolling_bound == 0.0)) {
     double u_normal = r.known.x();
     for (int k = r.begin; k < r.end; ++k) u_normal += h[k].normal * v[h[k].dof];
     if (u_normal + r.bias >= 0.0) return;

@@ -155,7 +155,8 @@ double TimeStepper::marginNeeded() {
   const double t_m = t_ + 0.5 * settings_.h;
   forwardKinematics(model_, data_, q_m_, v_free_);
   const double reach = settings_.h * fastestShapeSpeed(model_, data_, cmodel_, t_m);
-  if (reach <= stats_.margin) return 0.0;
+  // a state that stopped being finite is the run's to report, not a reason to detect again
+  if (!std::isfinite(reach) || reach <= stats_.margin) return 0.0;
   // the default rule (twice the speed) on the end velocities: one more detection, mostly
   return 2.0 * reach + cmodel_.margin_floor;
 }
