@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "contact/detection.hpp"
 
@@ -62,10 +63,64 @@ void ContactProblem::pack2d() {
   }
 }
 
+namespace {
+
+bool sameBits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof(double)) == 0;
+}
+
+// Row c of p in body form (ContactProblem::PackedBodies3d), if its entries have that shape.
+bool packBodies3d(const ContactProblem& p, int c, ContactProblem::PackedBodies3d& out) {
+  const int first = p.begin[c], count = p.begin[c + 1] - first;
+  if (!p.isDiagonal(c) || (count != 6 && count != 12)) return false;
+  for (int block = 0; block < count / 6; ++block) {
+    const int k0 = first + 6 * block;
+    for (int i = 0; i < 6; ++i)
+      if (p.dof[k0 + i] != p.dof[k0] + i) return false;
+    for (int i = 0; i < 3; ++i) {
+      if (p.rolling && !(p.rolling_h[k0 + i].x() == 0.0 && p.rolling_h[k0 + i].y() == 0.0))
+        return false;
+      if (!sameBits(p.h_inverse_mass[k0 + i], p.h_inverse_mass[k0])) return false;
+      // equal as values: a zero coefficient may be +0 in both blocks, and it then adds a
+      // signed zero where the entries add the other one, to a sum that cannot change
+      if (block == 1 && p.h[k0 + i] != -p.h[first + i]) return false;
+    }
+  }
+  auto rotation = [&](int k0, double(&normal)[3], double(&rest)[4][3], double(&inertia)[3]) {
+    for (int i = 0; i < 3; ++i) {
+      const int k = k0 + 3 + i;
+      normal[i] = p.h[k].x();
+      rest[0][i] = p.h[k].y();
+      rest[1][i] = p.h[k].z();
+      rest[2][i] = p.rolling ? p.rolling_h[k].x() : 0.0;
+      rest[3][i] = p.rolling ? p.rolling_h[k].y() : 0.0;
+      inertia[i] = p.h_inverse_mass[k];
+    }
+  };
+  out = ContactProblem::PackedBodies3d{};
+  for (int i = 0; i < 3; ++i) {
+    out.translation_normal[i] = p.h[first + i].x();
+    out.translation[0][i] = p.h[first + i].y();
+    out.translation[1][i] = p.h[first + i].z();
+  }
+  out.dof_a = p.dof[first];
+  out.inverse_mass_a = p.h_inverse_mass[first];
+  rotation(first, out.rotation_normal_a, out.rotation_a, out.inverse_inertia_a);
+  if (count == 12) {
+    out.dof_b = p.dof[first + 6];
+    out.inverse_mass_b = p.h_inverse_mass[first + 6];
+    rotation(first + 6, out.rotation_normal_b, out.rotation_b, out.inverse_inertia_b);
+  }
+  return true;
+}
+
+}  // namespace
+
 void ContactProblem::pack3d() {
   rows3d.clear();
   h3d.clear();
   minv3d.clear();
+  bodies3d.clear();
   if (dimension != 3) return;
   for (int c = 0; c < size(); ++c) {
     PackedRow3d row;
@@ -76,7 +131,13 @@ void ContactProblem::pack3d() {
     row.mu = friction[c];
     const bool diagonal_row = isDiagonal(c);
     row.begin = static_cast<int>(h3d.size());
-    for (int k = begin[c]; k < begin[c + 1]; ++k) {
+    PackedBodies3d bodies;
+    const bool body_form_row = pack_body_form && packBodies3d(*this, c, bodies);
+    if (body_form_row) {
+      row.body_form = static_cast<int>(bodies3d.size());
+      bodies3d.push_back(bodies);
+    }
+    for (int k = begin[c]; k < (body_form_row ? begin[c] : begin[c + 1]); ++k) {
       PackedEntry3d entry{
           h[k].x(), h[k].y(), h[k].z(), 0.0, 0.0, diagonal_row ? h_inverse_mass[k] : 0.0, dof[k]};
       if (rolling) {

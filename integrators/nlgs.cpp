@@ -287,60 +287,145 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   size2 += P_new.squaredNorm();
 }
 
-// v += M^-1 (H_c dP + H_r dR) on a packed 3D row
-inline void applyPacked3d(const ContactProblem::PackedRow3d& r,
-                          const ContactProblem::PackedEntry3d* h,
-                          const ContactProblem::PackedEntry3d* minv, const Vector3& dP,
-                          const Vector2& dR, VectorX& v) {
-  if (r.minv_begin == r.minv_end) {  // a diagonal row: M^-1 H is H scaled
-    for (int k = r.begin; k < r.end; ++k)
-      v[h[k].dof] += h[k].inverse_mass *
-                     (h[k].normal * dP.x() + h[k].tangent1 * dP.y() + h[k].tangent2 * dP.z() +
-                      h[k].rolling1 * dR.x() + h[k].rolling2 * dR.y());
-    return;
+// The packed 3D rows' storage, for the updates below
+struct PackedRows3d {
+  const ContactProblem::PackedRow3d* rows;
+  const ContactProblem::PackedEntry3d* h;
+  const ContactProblem::PackedEntry3d* minv;
+  const ContactProblem::PackedBodies3d* bodies;
+  explicit PackedRows3d(const ContactProblem& p)
+      : rows(p.rows3d.data()), h(p.h3d.data()), minv(p.minv3d.data()), bodies(p.bodies3d.data()) {}
+};
+
+// The three functions below read a row in body form in its entries' order (block a's linear
+// then angular velocities, then block b's), and subtract where block b's coefficient is block
+// a's negated: (-x) * y is -(x * y) exactly, so both forms give the same bits.
+
+// U_N = H_N^T v + known_N alone
+inline double packedNormalVelocity3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
+                                     const VectorX& v) {
+  double u = r.known.x();
+  if (r.body_form < 0) {
+    for (int k = r.begin; k < r.end; ++k) u += s.h[k].normal * v[s.h[k].dof];
+    return u;
   }
-  for (int k = r.minv_begin; k < r.minv_end; ++k)
-    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent1 * dP.y() +
-                      minv[k].tangent2 * dP.z() + minv[k].rolling1 * dR.x() +
-                      minv[k].rolling2 * dR.y();
+  const ContactProblem::PackedBodies3d& b = s.bodies[r.body_form];
+  const double* va = v.data() + b.dof_a;
+  for (int i = 0; i < 3; ++i) u += b.translation_normal[i] * va[i];
+  for (int i = 0; i < 3; ++i) u += b.rotation_normal_a[i] * va[3 + i];
+  if (b.dof_b < 0) return u;
+  const double* vb = v.data() + b.dof_b;
+  for (int i = 0; i < 3; ++i) u -= b.translation_normal[i] * vb[i];
+  for (int i = 0; i < 3; ++i) u += b.rotation_normal_b[i] * vb[3 + i];
+  return u;
 }
 
 // (U_c, U_r) = H^T v + known on a packed 3D row: one pass over its entries
-inline void packedVelocity3d(const ContactProblem::PackedRow3d& r,
-                             const ContactProblem::PackedEntry3d* h, const VectorX& v, Vector3& u,
-                             Vector2& u_rolling) {
+inline void packedVelocity3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
+                             const VectorX& v, Vector3& u, Vector2& u_rolling) {
   u = r.known;
   u_rolling = r.rolling_known;
-  for (int k = r.begin; k < r.end; ++k) {
-    const double vk = v[h[k].dof];
-    u.x() += h[k].normal * vk;
-    u.y() += h[k].tangent1 * vk;
-    u.z() += h[k].tangent2 * vk;
-    u_rolling.x() += h[k].rolling1 * vk;
-    u_rolling.y() += h[k].rolling2 * vk;
+  if (r.body_form < 0) {
+    for (int k = r.begin; k < r.end; ++k) {
+      const ContactProblem::PackedEntry3d& e = s.h[k];
+      const double vk = v[e.dof];
+      u.x() += e.normal * vk;
+      u.y() += e.tangent1 * vk;
+      u.z() += e.tangent2 * vk;
+      u_rolling.x() += e.rolling1 * vk;
+      u_rolling.y() += e.rolling2 * vk;
+    }
+    return;
+  }
+  const ContactProblem::PackedBodies3d& b = s.bodies[r.body_form];
+  auto block = [&](const double* vblock, bool negated, const double(&rotation_normal)[3],
+                   const double(&rotation)[4][3]) {
+    for (int i = 0; i < 3; ++i) {
+      const double vk = vblock[i];
+      if (negated) {
+        u.x() -= b.translation_normal[i] * vk;
+        u.y() -= b.translation[0][i] * vk;
+        u.z() -= b.translation[1][i] * vk;
+      } else {
+        u.x() += b.translation_normal[i] * vk;
+        u.y() += b.translation[0][i] * vk;
+        u.z() += b.translation[1][i] * vk;
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      const double vk = vblock[3 + i];
+      u.x() += rotation_normal[i] * vk;
+      u.y() += rotation[0][i] * vk;
+      u.z() += rotation[1][i] * vk;
+      u_rolling.x() += rotation[2][i] * vk;
+      u_rolling.y() += rotation[3][i] * vk;
+    }
+  };
+  block(v.data() + b.dof_a, false, b.rotation_normal_a, b.rotation_a);
+  if (b.dof_b >= 0) block(v.data() + b.dof_b, true, b.rotation_normal_b, b.rotation_b);
+}
+
+// v += M^-1 (H_c dP + H_r dR) on a packed 3D row
+inline void applyPacked3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
+                          const Vector3& dP, const Vector2& dR, VectorX& v) {
+  if (r.body_form >= 0) {
+    const ContactProblem::PackedBodies3d& b = s.bodies[r.body_form];
+    double translation[3];
+    for (int i = 0; i < 3; ++i)
+      translation[i] = b.translation_normal[i] * dP.x() + b.translation[0][i] * dP.y() +
+                       b.translation[1][i] * dP.z();
+    auto block = [&](double* vblock, double inverse_mass, bool negated,
+                     const double(&rotation_normal)[3], const double(&rotation)[4][3],
+                     const double(&inverse_inertia)[3]) {
+      for (int i = 0; i < 3; ++i) {
+        if (negated)
+          vblock[i] -= inverse_mass * translation[i];
+        else
+          vblock[i] += inverse_mass * translation[i];
+      }
+      for (int i = 0; i < 3; ++i)
+        vblock[3 + i] += inverse_inertia[i] * (rotation_normal[i] * dP.x() +
+                                               rotation[0][i] * dP.y() + rotation[1][i] * dP.z() +
+                                               rotation[2][i] * dR.x() + rotation[3][i] * dR.y());
+    };
+    block(v.data() + b.dof_a, b.inverse_mass_a, false, b.rotation_normal_a, b.rotation_a,
+          b.inverse_inertia_a);
+    if (b.dof_b >= 0)
+      block(v.data() + b.dof_b, b.inverse_mass_b, true, b.rotation_normal_b, b.rotation_b,
+            b.inverse_inertia_b);
+    return;
+  }
+  if (r.minv_begin == r.minv_end) {  // a diagonal row: M^-1 H is H scaled
+    for (int k = r.begin; k < r.end; ++k) {
+      const ContactProblem::PackedEntry3d& e = s.h[k];
+      v[e.dof] += e.inverse_mass * (e.normal * dP.x() + e.tangent1 * dP.y() + e.tangent2 * dP.z() +
+                                    e.rolling1 * dR.x() + e.rolling2 * dR.y());
+    }
+    return;
+  }
+  for (int k = r.minv_begin; k < r.minv_end; ++k) {
+    const ContactProblem::PackedEntry3d& e = s.minv[k];
+    v[e.dof] += e.normal * dP.x() + e.tangent1 * dP.y() + e.tangent2 * dP.z() +
+                e.rolling1 * dR.x() + e.rolling2 * dR.y();
   }
 }
 
 // One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
 // same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
 // the velocity the contact left), equal to it up to round-off.
-inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
-                            const ContactProblem::PackedEntry3d* h,
-                            const ContactProblem::PackedEntry3d* minv, double omega,
-                            LocalSolver3d local_solver, Vector3& P, Vector2* R, VectorX& v,
-                            double& change2, double& size2, int& failures) {
+inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
+                            double omega, LocalSolver3d local_solver, Vector3& P, Vector2* R,
+                            VectorX& v, double& change2, double& size2, int& failures) {
   // An open row stays open: with P = 0 and R = 0 the local free velocity is U, and
   // U_N + bias >= 0 makes every local solver return P = 0 (then R's disc has radius 0). On a
   // screened powder pass 43 % of the updates are such rows; their normal velocity alone costs
   // a fifth of the full one. Its sum runs in the full loop's order, so nothing changes by a bit.
   if (P.isZero(0.0) && (R == nullptr || R->isZero(0.0) || r.rolling_bound == 0.0)) {
-    double u_normal = r.known.x();
-    for (int k = r.begin; k < r.end; ++k) u_normal += h[k].normal * v[h[k].dof];
-    if (u_normal + r.bias >= 0.0) return;
+    if (packedNormalVelocity3d(r, s, v) + r.bias >= 0.0) return;
   }
   Vector3 u;
   Vector2 u_rolling;
-  packedVelocity3d(r, h, v, u, u_rolling);
+  packedVelocity3d(r, s, v, u, u_rolling);
   Vector3 q = u - r.W * P;
   q.x() += r.bias;
   Vector3 P_new = Vector3::Zero();
@@ -375,7 +460,7 @@ inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
     change2 += dR.squaredNorm() / lever2;
     size2 += R->squaredNorm() / lever2;
   }
-  applyPacked3d(r, h, minv, dP, dR, v);
+  applyPacked3d(r, s, dP, dR, v);
 }
 
 constexpr double kNncgRestart = 1.5;
@@ -504,11 +589,11 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       }
     }
     if (packed3d) {
+      const PackedRows3d rows(p);
       for (int k = 0; k < n; ++k) {
         const int c = ws.order[k];
-        coulombUpdate3d(p.rows3d[c], p.h3d.data(), p.minv3d.data(), omega, settings.local_solver_3d,
-                        P[c], R != nullptr ? &(*R)[c] : nullptr, v, change2, size2,
-                        stats.local_failures);
+        coulombUpdate3d(rows.rows[c], rows, omega, settings.local_solver_3d, P[c],
+                        R != nullptr ? &(*R)[c] : nullptr, v, change2, size2, stats.local_failures);
       }
     }
     for (int k = 0; k < (packed || packed3d ? 0 : n); ++k) {
@@ -870,8 +955,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
                         options.threshold == FrictionThreshold::Physical &&
                         (R == nullptr || static_cast<int>(R->size()) == p.size());
   auto packedSweep3d = [&](double& change2, double& size2) {
-    const ContactProblem::PackedEntry3d* h = p.h3d.data();
-    const ContactProblem::PackedEntry3d* minv = p.minv3d.data();
+    const PackedRows3d rows(p);
     const double omega = settings.relaxation;
     for (int k = 0; k < count; ++k) {
       const int c = ws.order[k];
@@ -879,10 +963,10 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       const bool friction_row = ws.threshold[c] > 0.0 || held(c);
       const bool guard_row = guarded(c);
       if (!rolling_row && !friction_row && !guard_row) continue;
-      const ContactProblem::PackedRow3d& r = p.rows3d[c];
+      const ContactProblem::PackedRow3d& r = rows.rows[c];
       Vector3 u;
       Vector2 u_rolling;
-      packedVelocity3d(r, h, v, u, u_rolling);
+      packedVelocity3d(r, rows, v, u, u_rolling);
       Vector2 dR = Vector2::Zero();
       if (rolling_row) {
         dR = rollingStep(p, c, lambda_N[c], omega, u_rolling, (*R)[c], change2, size2);
@@ -908,7 +992,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       } else if (guard_row) {
         dP.x() = guardStep(c, u.x(), r.W(0, 0), change2, size2);
       }
-      applyPacked3d(r, h, minv, dP, dR, v);
+      applyPacked3d(r, rows, dP, dR, v);
     }
   };
   auto sweep = [&](bool residual_only, double& change2, double& size2) {

@@ -530,6 +530,70 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   }
 }
 
+// Rows over one or two free spheres are packed in body form (one frame, two angular blocks)
+// instead of 6 or 12 entries. The form is a re-encoding read in the entries' order: both
+// schemes' solvers give the same bits from either.
+TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
+  const Scene& scene = heap.scene;
+  const test::StepProblem& step = heap.step;
+  const ContactProblem& bodies = step.problem;
+  ASSERT_TRUE(bodies.pack_body_form);
+  int body_rows = 0, two_body_rows = 0;
+  for (const auto& row : bodies.rows3d) {
+    if (row.body_form < 0) continue;
+    ++body_rows;
+    two_body_rows += bodies.bodies3d[row.body_form].dof_b >= 0 ? 1 : 0;
+  }
+  EXPECT_EQ(body_rows, bodies.size());  // spheres on spheres and on the plate
+  EXPECT_GT(two_body_rows, bodies.size() / 2);
+  EXPECT_GT(body_rows, two_body_rows);
+  ContactProblem entries = bodies;
+  entries.pack_body_form = false;
+  entries.pack3d();
+  for (const auto& row : entries.rows3d) ASSERT_LT(row.body_form, 0);
+
+  NlgsSettings solver;
+  solver.max_iterations = 60;
+  NlgsWorkspace ws;
+  ws.prepare(bodies.size(), scene.model.nv);
+  std::vector<Vector3> P1(bodies.size(), Vector3::Zero()), P2 = P1;
+  std::vector<Vector2> R1(bodies.size(), Vector2::Zero()), R2 = R1;
+  VectorX v1 = step.v_free, v2 = step.v_free;
+  const NlgsStats s1 = solveCoulombNlgs(bodies, solver, P1, v1, ws, &R1);
+  const NlgsStats s2 = solveCoulombNlgs(entries, solver, P2, v2, ws, &R2);
+  EXPECT_EQ(s1.iterations, s2.iterations);
+  EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * step.v_free.norm());  // the contacts did act
+  EXPECT_TRUE(v1 == v2);
+  for (int c = 0; c < bodies.size(); ++c) {
+    ASSERT_TRUE(P1[c] == P2[c]) << c;
+    ASSERT_TRUE(R1[c] == R2[c]) << c;
+  }
+
+  // scheme B: stage 5a, then 5b with its rolling rows
+  std::vector<double> lambda_N(bodies.size(), 0.0);
+  VectorX after_normal = step.v_free;
+  solveNormalStage(bodies, solver, lambda_N, after_normal, ws);
+  std::vector<double> delta1(bodies.size(), 0.0), delta2 = delta1;
+  std::vector<Vector2> tangent1(bodies.size(), Vector2::Zero()), tangent2 = tangent1;
+  std::fill(R1.begin(), R1.end(), Vector2::Zero());
+  std::fill(R2.begin(), R2.end(), Vector2::Zero());
+  v1 = after_normal;
+  v2 = after_normal;
+  FrictionStageOptions options;
+  const NlgsStats f1 =
+      solveFrictionStage(bodies, solver, options, lambda_N, delta1, tangent1, v1, ws, &R1);
+  const NlgsStats f2 =
+      solveFrictionStage(entries, solver, options, lambda_N, delta2, tangent2, v2, ws, &R2);
+  EXPECT_EQ(f1.iterations, f2.iterations);
+  EXPECT_GT((v1 - after_normal).norm(), 1e-6 * step.v_free.norm());  // friction did act
+  EXPECT_TRUE(v1 == v2);
+  for (int c = 0; c < bodies.size(); ++c) {
+    ASSERT_TRUE(tangent1[c] == tangent2[c]) << c;
+    ASSERT_TRUE(R1[c] == R2[c]) << c;
+  }
+}
+
 }  // namespace
 }  // namespace sweep
 
