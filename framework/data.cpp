@@ -23,6 +23,7 @@ Data::Data(const Model& model)
   constant_inverse6.assign(model.components.size(), Matrix6::Zero());
   has_constant_inverse6.assign(model.components.size(), 0);
   constant_inverse6_diagonal.assign(model.components.size(), 0);
+  constant_inverse_diagonal = VectorX::Zero(model.nv);
   for (size_t c = 0; c < model.components.size(); ++c) {
     if (!model.components[c].constant_mass) continue;
     mass_factors[c].compute(mass_blocks[c]);
@@ -31,6 +32,8 @@ Data::Data(const Model& model)
       has_constant_inverse6[c] = 1;
       const Matrix6& inverse = constant_inverse6[c];
       constant_inverse6_diagonal[c] = Matrix6(inverse.diagonal().asDiagonal()) == inverse;
+      if (constant_inverse6_diagonal[c])
+        constant_inverse_diagonal.segment<6>(model.components[c].v_index) = inverse.diagonal();
     }
   }
 }

@@ -29,6 +29,9 @@ struct Data {
   std::vector<Matrix6> constant_inverse6;
   std::vector<char> has_constant_inverse6;
   std::vector<char> constant_inverse6_diagonal;  // exactly: its off-diagonal entries are zero
+  // per velocity: the diagonal of its component's constant inverse where that is diagonal,
+  // 0 elsewhere. One contiguous read per body where the 6 x 6 blocks cost six cache lines.
+  VectorX constant_inverse_diagonal;
 
   VectorX tau;  // generalized force out of rnea()
   VectorX ddq;  // generalized acceleration out of forwardDynamics()

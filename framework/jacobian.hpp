@@ -23,7 +23,6 @@ void forEachPointJacobianColumn(const Model& model, const Data& data, int body,
     const Pose& pose = data.world_pose[j];
     const MotionSubspace& S = data.motion_subspace[j];
     const Vector3 lever = point_world - pose.translation;
-    int first = 0;
     if (model.bodies[j].joint.type == JointType::Floating) {
       // The linear velocity is in the joint's parent frame, so its columns are that frame's
       // axes: taken as they are, not as R (R^T e_k), whose round-off differs from body to
@@ -34,9 +33,15 @@ void forEachPointJacobianColumn(const Model& model, const Data& data, int body,
           b.parent < 0 ? b.joint_placement.rotation
                        : Matrix3(data.world_pose[b.parent].rotation * b.joint_placement.rotation);
       for (int k = 0; k < 3; ++k) visit(b.v_index + k, Vector3::Zero().eval(), frame.col(k).eval());
-      first = 3;
+      // the angular velocity is in body axes: its columns are the body's axes (S is not read,
+      // a 300-byte record per body)
+      for (int k = 0; k < 3; ++k) {
+        const Vector3 w = pose.rotation.col(k);
+        visit(b.v_index + 3 + k, w, w.cross(lever).eval());
+      }
+      continue;
     }
-    for (int k = first; k < S.cols(); ++k) {
+    for (int k = 0; k < S.cols(); ++k) {
       const Vector3 w = pose.rotation * S.col(k).head<3>();
       const Vector3 lin = pose.rotation * S.col(k).tail<3>() + w.cross(lever);
       visit(model.bodies[j].v_index + k, w, lin);

@@ -17,15 +17,17 @@ using VectorX = Eigen::VectorXd;
 using MatrixX = Eigen::MatrixXd;
 
 struct Body {
-  std::string name;
-  std::string joint_name;
+  // first what the kinematics and the contact rows read for every contact, in the struct's
+  // first cache lines (a powder bed reads them for thousands of bodies per step)
   int parent = -1;  // -1: the world
-  Joint joint;
-  Pose joint_placement;  // joint frame in the parent body frame (or world)
-  Inertia inertia;       // in the body frame
   int q_index = 0;
   int v_index = 0;
   int component = 0;
+  Joint joint;
+  Pose joint_placement;  // joint frame in the parent body frame (or world)
+  Inertia inertia;       // in the body frame
+  std::string name;
+  std::string joint_name;
 };
 
 // Bodies connected to the world through one root joint. M is block diagonal over components;

@@ -247,11 +247,11 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     ws.touched.clear();
     bool diagonal_row = true;
     for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+      // > 0 exactly where the component's constant inverse is diagonal
+      diagonal_row = diagonal_row && data.constant_inverse_diagonal[p.dof[k]] > 0.0;
       const int comp = ws.dof_component[p.dof[k]];
       if (std::find(ws.touched.begin(), ws.touched.end(), comp) != ws.touched.end()) continue;
       ws.touched.push_back(comp);
-      diagonal_row =
-          diagonal_row && data.has_constant_inverse6[comp] && data.constant_inverse6_diagonal[comp];
     }
     p.diagonal.push_back(diagonal_row ? 1 : 0);
     Matrix3 W = Matrix3::Zero();
@@ -263,9 +263,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       // order, so the same bits).
       double w[3][3] = {}, w_r[2][2] = {};
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-        const int comp = ws.dof_component[p.dof[k]];
-        const double inverse_mass =
-            data.constant_inverse6[comp].diagonal()[p.dof[k] - model.components[comp].v_index];
+        const double inverse_mass = data.constant_inverse_diagonal[p.dof[k]];
         p.h_inverse_mass.push_back(inverse_mass);
         const Vector3& h = p.h[k];
         for (int i = 0; i < 3; ++i) {

@@ -159,134 +159,6 @@ void rollingUpdate(const ContactProblem& p, int c, double normal_impulse, double
   p.applyRolling(c, rollingStep(p, c, normal_impulse, omega, u, R, change2, size2), v);
 }
 
-// natural-map residual of the rolling rows, in the same units
-void rollingResidual(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
-                     const VectorX& v, double& f2, double& scale2) {
-  const Vector2 u = p.rollingVelocity(c, v);
-  const Vector2 f = R - rollingTarget(p, c, normal_impulse, R, u);
-  const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
-  f2 += f.squaredNorm() / lever2;
-  scale2 += std::max(R.squaredNorm(), (u / p.rolling_delassus[c](0, 0)).squaredNorm()) / lever2;
-}
-
-bool hasRollingRow(const ContactProblem& p, const std::vector<Vector2>* R, int c) {
-  return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0;
-}
-
-// Applies a warm start of the rolling rows; rows without a bound keep none.
-void warmStartRolling(const ContactProblem& p, std::vector<Vector2>* R, VectorX& v) {
-  if (R == nullptr || !p.rolling) return;
-  for (int c = 0; c < p.size(); ++c) {
-    if (p.rolling_bound[c] > 0.0)
-      p.applyRolling(c, (*R)[c], v);
-    else
-      (*R)[c].setZero();
-  }
-}
-
-// The stats of a solve over islands: the worst island's sweeps, residual and status.
-void mergeIsland(NlgsStats& total, const NlgsStats& island) {
-  total.iterations = std::max(total.iterations, island.iterations);
-  total.updates += island.updates;
-  total.residual = std::max(total.residual, island.residual);
-  total.local_failures += island.local_failures;
-  if (island.status == SolverStatus::Failed ||
-      (island.status == SolverStatus::MaxIterations && total.status == SolverStatus::Converged))
-    total.status = island.status;
-}
-
-double relative(double num2, double den2) {
-  return den2 > 0.0 ? std::sqrt(num2 / den2) : std::sqrt(num2);
-}
-
-// Whether to evaluate the residual after sweep `it` (from 0), whose impulse change is change2
-// against size2.
-bool residualDue(const NlgsSettings& settings, int it, double change2, double size2) {
-  return relative(change2, size2) < settings.tolerance ||
-         (settings.residual_check_interval > 0 && (it + 1) % settings.residual_check_interval == 0);
-}
-
-}  // namespace
-
-// ---------------------------------------------------------------------------------------
-// scheme A
-// ---------------------------------------------------------------------------------------
-
-namespace {
-// natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
-// comparable to P (Siconos mixes impulses and velocities)
-double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
-                       const std::vector<Vector2>* R, const VectorX& v, const NlgsWorkspace& ws,
-                       int count) {
-  double f2 = 0.0, scale2 = 0.0;
-  for (int k = 0; k < count; ++k) {
-    const int c = ws.order[k];
-    if (hasRollingRow(p, R, c)) rollingResidual(p, c, P[c].x(), (*R)[c], v, f2, scale2);
-    Vector3 u = p.localVelocity(c, v);
-    u.x() += p.normal_bias[c];
-    const Vector3 ru = u / p.delassus[c](0, 0);
-    f2 += coulombNaturalMap(P[c], ru, p.friction[c], p.dimension).squaredNorm();
-    scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
-  }
-  return relative(f2, scale2);
-}
-}  // namespace
-
-namespace {
-NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
-                        std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
-                        NlgsWorkspace& ws, int n);
-}  // namespace
-
-NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings,
-                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws,
-                           std::vector<Vector2>* R) {
-  NlgsStats total;
-  for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
-  warmStartRolling(p, R, v);
-  if (p.size() == 0) return total;
-  prepareNncg(settings, p, v, ws);
-  for (int island = 0; island < p.islandCount(); ++island) {
-    const int n = selectIsland(p, island, ws);
-    NlgsStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
-    island_stats.updates = static_cast<long>(island_stats.iterations) * n;
-    mergeIsland(total, island_stats);
-  }
-  if (!v.allFinite()) total.status = SolverStatus::Failed;
-  return total;
-}
-
-namespace {
-// One 2D update on the packed rows: the same arithmetic as the generic path below.
-inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
-                            const ContactProblem::PackedEntry2d* h,
-                            const ContactProblem::PackedEntry2d* minv, double omega, Vector3& P,
-                            VectorX& v, double& change2, double& size2, int& failures) {
-  if (P.x() == 0.0 && P.y() == 0.0) {  // an open row that stays open: see coulombUpdate3d
-    double u_normal = r.known.x();
-    for (int k = r.begin; k < r.end; ++k) u_normal += h[k].normal * v[h[k].dof];
-    if (u_normal + r.bias >= 0.0) return;
-  }
-  Vector2 u = r.known;
-  for (int k = r.begin; k < r.end; ++k) u += Vector2(h[k].normal, h[k].tangent) * v[h[k].dof];
-  const Vector2 P_old = P.head<2>();
-  Vector2 q = u - r.W * P_old;
-  q.x() += r.bias;
-  Vector2 P_new;
-  if (r.mu == 0.0) {
-    P_new = Vector2(std::max(-q.x() * r.W_inverse(0, 0), 0.0), 0.0);
-  } else if (!solveCoulomb2d(r.W, r.W_inverse, q, r.mu, P_new)) {
-    ++failures;
-  }
-  if (omega != 1.0) P_new = omega * P_new + (1.0 - omega) * P_old;
-  const Vector2 dP = P_new - P_old;
-  for (int k = r.minv_begin; k < r.minv_end; ++k)
-    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent * dP.y();
-  P.head<2>() = P_new;
-  change2 += dP.squaredNorm();
-  size2 += P_new.squaredNorm();
-}
-
 // The packed 3D rows' storage, for the updates below
 struct PackedRows3d {
   const ContactProblem::PackedRow3d* rows;
@@ -366,8 +238,9 @@ inline void packedVelocity3d(const ContactProblem::PackedRow3d& r, const PackedR
 }
 
 // v += M^-1 (H_c dP + H_r dR) on a packed 3D row
-inline void applyPacked3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
-                          const Vector3& dP, const Vector2& dR, VectorX& v) {
+[[gnu::always_inline]] inline void applyPacked3d(const ContactProblem::PackedRow3d& r,
+                                                 const PackedRows3d& s, const Vector3& dP,
+                                                 const Vector2& dR, VectorX& v) {
   if (r.body_form >= 0) {
     const ContactProblem::PackedBodies3d& b = s.bodies[r.body_form];
     double translation[3];
@@ -408,6 +281,144 @@ inline void applyPacked3d(const ContactProblem::PackedRow3d& r, const PackedRows
     v[e.dof] += e.normal * dP.x() + e.tangent1 * dP.y() + e.tangent2 * dP.z() +
                 e.rolling1 * dR.x() + e.rolling2 * dR.y();
   }
+}
+
+// natural-map residual of the rolling rows, in the same units
+void rollingResidual(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
+                     const Vector2& u, double& f2, double& scale2) {
+  const Vector2 f = R - rollingTarget(p, c, normal_impulse, R, u);
+  const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
+  f2 += f.squaredNorm() / lever2;
+  scale2 += std::max(R.squaredNorm(), (u / p.rolling_delassus[c](0, 0)).squaredNorm()) / lever2;
+}
+
+bool hasRollingRow(const ContactProblem& p, const std::vector<Vector2>* R, int c) {
+  return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0;
+}
+
+// Applies a warm start of the rolling rows; rows without a bound keep none.
+void warmStartRolling(const ContactProblem& p, std::vector<Vector2>* R, VectorX& v) {
+  if (R == nullptr || !p.rolling) return;
+  for (int c = 0; c < p.size(); ++c) {
+    if (p.rolling_bound[c] > 0.0)
+      p.applyRolling(c, (*R)[c], v);
+    else
+      (*R)[c].setZero();
+  }
+}
+
+// The stats of a solve over islands: the worst island's sweeps, residual and status.
+void mergeIsland(NlgsStats& total, const NlgsStats& island) {
+  total.iterations = std::max(total.iterations, island.iterations);
+  total.updates += island.updates;
+  total.residual = std::max(total.residual, island.residual);
+  total.local_failures += island.local_failures;
+  if (island.status == SolverStatus::Failed ||
+      (island.status == SolverStatus::MaxIterations && total.status == SolverStatus::Converged))
+    total.status = island.status;
+}
+
+double relative(double num2, double den2) {
+  return den2 > 0.0 ? std::sqrt(num2 / den2) : std::sqrt(num2);
+}
+
+// Whether to evaluate the residual after sweep `it` (from 0), whose impulse change is change2
+// against size2.
+bool residualDue(const NlgsSettings& settings, int it, double change2, double size2) {
+  return relative(change2, size2) < settings.tolerance ||
+         (settings.residual_check_interval > 0 && (it + 1) % settings.residual_check_interval == 0);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// scheme A
+// ---------------------------------------------------------------------------------------
+
+namespace {
+// natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
+// comparable to P (Siconos mixes impulses and velocities)
+double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
+                       const std::vector<Vector2>* R, const VectorX& v, const NlgsWorkspace& ws,
+                       int count) {
+  double f2 = 0.0, scale2 = 0.0;
+  // packed 3D rows: one pass for the contact's and its rolling row's velocities, the same sums
+  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size();
+  const PackedRows3d rows(p);
+  for (int k = 0; k < count; ++k) {
+    const int c = ws.order[k];
+    const bool rolling_row = hasRollingRow(p, R, c);
+    Vector3 u;
+    Vector2 u_rolling;
+    if (packed3d) {
+      packedVelocity3d(rows.rows[c], rows, v, u, u_rolling);
+    } else {
+      u = p.localVelocity(c, v);
+      if (rolling_row) u_rolling = p.rollingVelocity(c, v);
+    }
+    if (rolling_row) rollingResidual(p, c, P[c].x(), (*R)[c], u_rolling, f2, scale2);
+    u.x() += p.normal_bias[c];
+    const Vector3 ru = u / p.delassus[c](0, 0);
+    f2 += coulombNaturalMap(P[c], ru, p.friction[c], p.dimension).squaredNorm();
+    scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
+  }
+  return relative(f2, scale2);
+}
+}  // namespace
+
+namespace {
+NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
+                        std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
+                        NlgsWorkspace& ws, int n);
+}  // namespace
+
+NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings,
+                           std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws,
+                           std::vector<Vector2>* R) {
+  NlgsStats total;
+  for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
+  warmStartRolling(p, R, v);
+  if (p.size() == 0) return total;
+  prepareNncg(settings, p, v, ws);
+  for (int island = 0; island < p.islandCount(); ++island) {
+    const int n = selectIsland(p, island, ws);
+    NlgsStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
+    island_stats.updates = static_cast<long>(island_stats.iterations) * n;
+    mergeIsland(total, island_stats);
+  }
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
+}
+
+namespace {
+// One 2D update on the packed rows: the same arithmetic as the generic path below.
+inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
+                            const ContactProblem::PackedEntry2d* h,
+                            const ContactProblem::PackedEntry2d* minv, double omega, Vector3& P,
+                            VectorX& v, double& change2, double& size2, int& failures) {
+  if (P.x() == 0.0 && P.y() == 0.0) {  // an open row that stays open: see coulombUpdate3d
+    double u_normal = r.known.x();
+    for (int k = r.begin; k < r.end; ++k) u_normal += h[k].normal * v[h[k].dof];
+    if (u_normal + r.bias >= 0.0) return;
+  }
+  Vector2 u = r.known;
+  for (int k = r.begin; k < r.end; ++k) u += Vector2(h[k].normal, h[k].tangent) * v[h[k].dof];
+  const Vector2 P_old = P.head<2>();
+  Vector2 q = u - r.W * P_old;
+  q.x() += r.bias;
+  Vector2 P_new;
+  if (r.mu == 0.0) {
+    P_new = Vector2(std::max(-q.x() * r.W_inverse(0, 0), 0.0), 0.0);
+  } else if (!solveCoulomb2d(r.W, r.W_inverse, q, r.mu, P_new)) {
+    ++failures;
+  }
+  if (omega != 1.0) P_new = omega * P_new + (1.0 - omega) * P_old;
+  const Vector2 dP = P_new - P_old;
+  for (int k = r.minv_begin; k < r.minv_end; ++k)
+    v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent * dP.y();
+  P.head<2>() = P_new;
+  change2 += dP.squaredNorm();
+  size2 += P_new.squaredNorm();
 }
 
 // One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
@@ -1010,7 +1021,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
       // rolling resistance, bounded by the stage-5a normal impulse like the friction
       if (hasRollingRow(p, R, c)) {
         if (residual_only)
-          rollingResidual(p, c, lambda_N[c], (*R)[c], v, f2, scale2);
+          rollingResidual(p, c, lambda_N[c], (*R)[c], p.rollingVelocity(c, v), f2, scale2);
         else
           rollingUpdate(p, c, lambda_N[c], settings.relaxation, (*R)[c], v, change2, size2);
       }
