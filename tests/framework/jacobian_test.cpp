@@ -4,6 +4,7 @@
 
 #include "framework/configuration.hpp"
 #include "framework/kinematics.hpp"
+#include "models/rigid_bodies.hpp"
 #include "test_models.hpp"
 
 namespace sweep {
@@ -60,6 +61,30 @@ TEST_P(JacobianTest, FrameJacobianAgreesWithBodyVelocity) {
     const Vector6& vb = data.velocity[body];
     EXPECT_LT(((J * v).head<3>() - r * vb.head<3>()).norm(), 1e-12);
     EXPECT_LT(((J * v).tail<3>() - r * vb.tail<3>()).norm(), 1e-12);
+  }
+}
+
+// A floating joint's linear velocity is in its parent frame, so the point Jacobian's columns
+// for it are that frame's axes exactly, whatever the body's orientation: the world axes for a
+// free body. The contact rows of two spheres then share them to the bit (their body form).
+TEST(FloatingJacobian, LinearColumnsAreTheParentAxesExactly) {
+  ModelBuilder builder;
+  addFreeBody(builder, "a", solidSphereInertia(1.3, 0.2));
+  addFreeBody(builder, "b", solidSphereInertia(0.7, 0.1));
+  const Model model = builder.build();
+  Data data(model);
+  std::mt19937 rng(37);
+  forwardKinematics(model, data, test::randomConfiguration(model, rng));
+  for (int b = 0; b < 2; ++b) {
+    ASSERT_FALSE(data.world_pose[b].rotation.isIdentity(1e-3));  // a turned body
+    Eigen::Matrix<double, 6, Eigen::Dynamic> J =
+        Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.nv);
+    pointJacobian(model, data, b, data.world_pose[b].translation + Vector3(0.05, -0.1, 0.2), J);
+    const int first = model.bodies[b].v_index;
+    EXPECT_TRUE((J.block<3, 3>(3, first) == Matrix3::Identity())) << J.block<3, 3>(3, first);
+    EXPECT_TRUE((J.block<3, 3>(0, first).isZero(0.0)));
+    // the angular columns: the body's axes (angular velocity in body axes)
+    EXPECT_TRUE((J.block<3, 3>(0, first + 3) == data.world_pose[b].rotation));
   }
 }
 
