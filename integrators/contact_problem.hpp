@@ -94,7 +94,7 @@ struct ContactProblem {
     double bias = 0.0;
     // a diagonal row (see h_inverse_mass) has no M^-1 H entries: minv_begin == minv_end, and
     // v is updated through its H entries. On the powder bed this halves the bytes a local
-    // update reads, and the sweeps are bound by them.
+    // update reads (their weight in the sweep time: docs/powder_bed.md, "Rows in body form").
     int begin = 0, end = 0, minv_begin = 0, minv_end = 0;
     // >= 0: the row is in body form, bodies3d[body_form], and has no entries in h3d
     int body_form = -1;
