@@ -43,8 +43,10 @@ struct NlgsSettings {
   // change test alone cost 60 % more sweeps than the residual needs (docs/powder_bed.md).
   double tolerance = 1e-6;
   int residual_check_interval = 10;
-  double relaxation = 1.0;  // omega; 1 is plain Gauss-Seidel, (1, 2) over-relaxation
-  bool shuffle = false;     // random contact order every sweep (seeded, deterministic)
+  // omega; 1 is plain Gauss-Seidel, (0, 1) under- and (1, 2) over-relaxation. A row whose
+  // local solution is zero takes it at once (nlgs.cpp, relaxedImpulse).
+  double relaxation = 1.0;
+  bool shuffle = false;  // random contact order every sweep (seeded, deterministic)
   std::uint32_t seed = 1;
   LocalSolver3d local_solver_3d = LocalSolver3d::AlartCurnier;
   NlgsAcceleration acceleration = NlgsAcceleration::None;
