@@ -146,7 +146,7 @@ Vector2 rollingTarget(const ContactProblem& p, int c, double normal_impulse, con
 // that solution is zero: a row that opens, opens at once. Relaxed towards zero, its impulse
 // would only decay and never become the exact zero that the open-row shortcut of the packed
 // updates tests for; with omega = 0.9 the powder pass then took fewer sweeps but more time
-// (docs/powder_bed.md, "Under-relaxation").
+// (docs/powder_bed.md, "Under-relaxation, and rows that open at once").
 template <class Impulse>
 Impulse relaxedImpulse(const Impulse& solution, const Impulse& current, double omega) {
   if (omega == 1.0 || solution.isZero(0.0)) return solution;
