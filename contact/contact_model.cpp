@@ -18,10 +18,18 @@ const char* detectionPathName(DetectionPath path) {
                                          : "FCL (dynamic AABB tree, GJK/EPA)";
 }
 
+const char* marginRuleName(MarginRule rule) {
+  return rule == MarginRule::Absolute ? "absolute" : "relative";
+}
+
 void DetectionSettings::validate() const {
   const auto show = formatValue;
   if (!(std::isfinite(speed_factor) && speed_factor >= 0.0))
     throw InputError("detection.speed_factor must be >= 0, got " + show(speed_factor));
+  // a resting heap gets the floor as its margin: only the check of the end velocities makes
+  // a grain set moving within the step safe
+  if (margin_rule == MarginRule::Relative && !verify_margin)
+    throw InputError("detection.margin_rule: relative needs detection.verify_margin: true");
   if (!std::isfinite(floor)) throw InputError("detection.floor must be finite, got " + show(floor));
   if (periodic.enabled()) {
     if (periodic.axis > 2)
@@ -52,8 +60,9 @@ std::string describe(const ContactModel& cmodel) {
   std::ostringstream out;
   out << "contact: " << cmodel.size() << " shapes (" << cmodel.dimension << "D), detection "
       << detectionPathName(cmodel.path) << " (" << cmodel.path_reason << "), margin floor "
-      << cmodel.margin_floor << " m, friction "
-      << (cmodel.frictionless ? "off (every mu = 0)" : "on")
+      << cmodel.margin_floor << " m, "
+      << (cmodel.settings.margin_rule == MarginRule::Relative ? "relative ball margins, " : "")
+      << "friction " << (cmodel.frictionless ? "off (every mu = 0)" : "on")
       << (cmodel.rolling ? ", rolling resistance on" : "");
   if (cmodel.settings.periodic.enabled())
     out << ", periodic along "

@@ -53,12 +53,24 @@ struct Periodicity {
   double period() const { return high - low; }
 };
 
+// Which speeds set the margin of a pair of two balls (spheres, disks); every other pair keeps
+// the absolute rule. docs/contact.md, "The margin, relative".
+enum class MarginRule {
+  Absolute,  // the largest speed of any shape point in the world frame
+  // The balls' centres only, about the middle of their velocities' bounding box: a ball turning
+  // about its centre moves no surface, and grains carried along together close no gap between
+  // them. Needs verify_margin, which checks the end velocities against it.
+  Relative,
+};
+const char* marginRuleName(MarginRule rule);
+
 struct DetectionSettings {
   DetectionPathChoice path = DetectionPathChoice::Automatic;
   // Candidate contacts are pairs with gap below the margin
   //   margin = speed_factor * h * (largest speed of a shape point) + floor,
   // so that every contact that can close during the step is in the solve.
   double speed_factor = 2.0;
+  MarginRule margin_rule = MarginRule::Absolute;
   // After the solve, check the margin against the end velocities: a pair left out had a gap
   // of at least the margin at q_m, and closes by q_{k+1} only if h * (fastest end speed)
   // exceeds it. A step that fails is detected and solved again with twice the end speed's

@@ -96,10 +96,55 @@ double fastestShapeSpeed(const Model& model, const Data& data, const ContactMode
   return fastest;
 }
 
+double ballClosingSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
+                        double t) {
+  // A ball's surface moves with its centre whatever it spins, so the centres' velocities
+  // bound every gap between two balls; any common velocity u drops out of their differences.
+  Vector3 low = Vector3::Constant(std::numeric_limits<double>::infinity());
+  Vector3 high = -low;
+  double fastest = 0.0;
+  auto centreVelocity = [&](int i) -> Vector3 {
+    const Geometry& g = cmodel.geometries[i];
+    const BodyRef& body = cmodel.traits[i].body_ref;
+    if (body.kind == BodyRef::Kind::Dynamic) {
+      const Vector6& twist = data.velocity[body.index];  // body coordinates
+      const Vector3 local =
+          twist.tail<3>() + twist.head<3>().cross(Vector3(g.placement.translation));
+      return data.world_pose[body.index].rotation * local;
+    }
+    if (body.kind == BodyRef::Kind::Driven) {
+      const DrivenBody& driven = model.driven_bodies[body.index];
+      return driven.pointVelocity(driven.pose(t).apply(g.placement.translation), t);
+    }
+    return Vector3::Zero();
+  };
+  for (int i = 0; i < cmodel.size(); ++i) {
+    if (!(cmodel.traits[i].ball_radius > 0.0)) continue;
+    const Vector3 c = centreVelocity(i);
+    low = low.cwiseMin(c);
+    high = high.cwiseMax(c);
+    fastest = std::max(fastest, c.norm());
+  }
+  if (!(low.x() <= high.x())) return 0.0;  // no balls
+  const double spread = 0.5 * (high - low).norm();
+  // a non-finite spread compares false and leaves the absolute bound, as fastestShapeSpeed
+  // leaves non-finite speeds out
+  return spread < fastest ? spread : fastest;
+}
+
 double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
                        double t) {
   return cmodel.settings.speed_factor * h * fastestShapeSpeed(model, data, cmodel, t) +
          cmodel.margin_floor;
+}
+
+DetectionMargins detectionMargins(const Model& model, const Data& data, const ContactModel& cmodel,
+                                  double h, double t) {
+  const double others = detectionMargin(model, data, cmodel, h, t);
+  if (cmodel.settings.margin_rule == MarginRule::Absolute) return DetectionMargins::uniform(others);
+  const double balls = cmodel.settings.speed_factor * h * ballClosingSpeed(model, data, cmodel, t) +
+                       cmodel.margin_floor;
+  return {std::min(balls, others), others};
 }
 
 namespace {
@@ -193,7 +238,9 @@ Vector3 imageShift(const Periodicity& periodic, int image) {
   return shift;
 }
 
-void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margin) {
+void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata,
+                    const DetectionMargins& margins) {
+  const double margin = margins.balls;  // the grid holds balls only
   const int n = static_cast<int>(cdata.particles.size());
   double largest = 0.0;
   cdata.particle_center.resize(n);
@@ -255,7 +302,10 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margi
       for (int k = 0; k < n; ++k) add(k);
     } else {
       const Vector3 center = cdata.geometry_pose[g].translation;
-      const Vector3 half = Vector3::Constant(boundingRadius(shape) + largest + margin);
+      // a large ball meets the particles with the balls' margin, which a check of the end
+      // velocities may have raised above the other one
+      const Vector3 half = Vector3::Constant(boundingRadius(shape) + largest +
+                                             std::max(margins.balls, margins.others));
       cdata.grid.query(center - half, center + half, add);
     }
     // the same pairs in the same order as over every m > l, skipping frozen-frozen ones
@@ -272,8 +322,9 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, double margi
   }
 }
 
-void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata, double margin) {
-  cdata.fcl->update(cdata.geometry_pose, margin);
+void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata,
+                   const DetectionMargins& margins) {
+  cdata.fcl->update(cdata.geometry_pose, std::max(margins.balls, margins.others));
   cdata.fcl->findPairs(cdata.pairs);
   for (auto& pair : cdata.pairs) pair = encodePair(pair.first, pair.second);
   // FCL holds no half-spaces: they meet every geometry
@@ -316,7 +367,7 @@ void sortPairs(int geometries, ContactData& cdata) {
 }  // namespace
 
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
-                    ContactData& cdata, double t, double margin) {
+                    ContactData& cdata, double t, const DetectionMargins& margins) {
   std::swap(cdata.contacts, cdata.previous);
   cdata.contacts.clear();
   cdata.pairs.clear();
@@ -324,9 +375,9 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
 
   // broadphase
   if (cmodel.path == DetectionPath::Analytic)
-    broadphaseGrid(cmodel, cdata, margin);
+    broadphaseGrid(cmodel, cdata, margins);
   else
-    broadphaseFcl(cmodel, cdata, margin);
+    broadphaseFcl(cmodel, cdata, margins);
   sortPairs(cmodel.size(), cdata);
   cdata.stats = DetectionStats{};
 
@@ -347,6 +398,8 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];
     const std::size_t first = cdata.contacts.size();
+    const bool balls = ta.ball_radius > 0.0 && tb.ball_radius > 0.0;
+    const double margin = balls ? margins.balls : margins.others;
     auto emit = [&](const ContactPoint& p) {
       if (!(p.gap < margin)) return;
       Contact& c = cdata.contacts.emplace_back();
@@ -358,7 +411,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       c.point_a = p.point_a;
       c.point_b = p.point_b - shift;  // on b itself: its Jacobian's lever arm
     };
-    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
+    if (balls && cmodel.path == DetectionPath::Analytic) {
       // grain against grain, the bulk of a granular step: nothing but centres and radii; the
       // feature of a periodic pair is the image it meets
       ContactPoint p = ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,

@@ -67,15 +67,37 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
 double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
                          double t);
 
+// The speed that bounds how fast two balls (spheres, disks) close on each other, at (q, v)
+// and t: the largest |c_i - u| over the balls' centre velocities c_i, with u the middle of
+// their bounding box, or the largest |c_i| if that is smaller. Two balls close by at most
+// h/2 |c_i - c_j| <= h * this over the half step from q_m. Needs forwardKinematics.
+double ballClosingSpeed(const Model& model, const Data& data, const ContactModel& cmodel, double t);
+
+// The margins of one detection: pairs of two balls, and every other pair.
+struct DetectionMargins {
+  double balls = 0.0;
+  double others = 0.0;
+  static DetectionMargins uniform(double margin) { return {margin, margin}; }
+};
+
 // margin = speed_factor * h * fastestShapeSpeed + floor.
 // Needs forwardKinematics(model, data, q, v).
 double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
                        double t);
 
-// Fills cdata.contacts with every pair of geometries closer than `margin`, sorted by key,
+// The margins under detection.margin_rule: `absolute`, detectionMargin for every pair;
+// `relative`, pairs of two balls from ballClosingSpeed instead (never above the other margin).
+DetectionMargins detectionMargins(const Model& model, const Data& data, const ContactModel& cmodel,
+                                  double h, double t);
+
+// Fills cdata.contacts with every pair of geometries closer than their margin, sorted by key,
 // with frames and contact laws, each matched to the previous detection's contacts.
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
-                    ContactData& cdata, double t, double margin);
+                    ContactData& cdata, double t, const DetectionMargins& margins);
+inline void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
+                           ContactData& cdata, double t, double margin) {
+  detectContacts(model, data, cmodel, cdata, t, DetectionMargins::uniform(margin));
+}
 
 // Gaps of the contacts of the last detection, re-evaluated on the true geometry at the
 // configuration in `data` (after forwardKinematics) and time t: the end-of-step penetration

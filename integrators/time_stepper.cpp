@@ -107,7 +107,8 @@ const StepStats& TimeStepper::step() {
   stats_.margin_outrun = false;
   // VEL solves the closed contacts only, which the margin does not decide
   if (cmodel_.settings.verify_margin && settings_.normal_law != NormalLaw::Vel) {
-    for (double needed = marginNeeded(); needed > 0.0; needed = marginNeeded()) {
+    for (DetectionMargins needed = marginNeeded(); needed.balls > 0.0 || needed.others > 0.0;
+         needed = marginNeeded()) {
       if (stats_.redetections == kMaxRedetections) {
         stats_.margin_outrun = true;
         break;
@@ -128,14 +129,16 @@ void TimeStepper::midpoint() {
   integrate(model_, q_, 0.5 * settings_.h * v_, q_m_);
 }
 
-void TimeStepper::detect(double at_least) {
+void TimeStepper::detect(const DetectionMargins& at_least) {
   const auto start = Clock::now();
   const double t_m = t_ + 0.5 * settings_.h;
   forwardKinematics(model_, data_, q_m_, v_);
-  const double margin =
-      std::max(detectionMargin(model_, data_, cmodel_, settings_.h, t_m), at_least);
-  stats_.margin = margin;
-  detectContacts(model_, data_, cmodel_, cdata_, t_m, margin);
+  DetectionMargins margins = detectionMargins(model_, data_, cmodel_, settings_.h, t_m);
+  margins.others = std::max(margins.others, at_least.others);
+  margins.balls = std::max(margins.balls, at_least.balls);
+  stats_.margin = margins.others;
+  stats_.margin_balls = margins.balls;
+  detectContacts(model_, data_, cmodel_, cdata_, t_m, margins);
   std::swap(impulse_, previous_impulse_);
   impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
   std::swap(staged_, previous_staged_);
@@ -149,19 +152,28 @@ void TimeStepper::detect(double at_least) {
   stats_.t_detect = seconds(start);
 }
 
-double TimeStepper::marginNeeded() {
+DetectionMargins TimeStepper::marginNeeded() {
   // A pair left out had gap >= margin at q_m and moves by h/2 times its relative velocity
-  // until q_{k+1}: at most h/2 (e_a + e_b) <= h * (fastest end speed of a shape point).
+  // until q_{k+1}: at most h/2 (e_a + e_b) <= h * (fastest end speed of a shape point), and
+  // for two balls at most h * ballClosingSpeed at the end velocities.
   const double t_m = t_ + 0.5 * settings_.h;
   forwardKinematics(model_, data_, q_m_, v_free_);
-  const double reach = settings_.h * fastestShapeSpeed(model_, data_, cmodel_, t_m);
-  // a state that stopped being finite is the run's to report, not a reason to detect again
-  if (!std::isfinite(reach) || reach <= stats_.margin) return 0.0;
-  // the default rule (twice the speed) on the end velocities: one more detection, mostly
-  return 2.0 * reach + cmodel_.margin_floor;
+  // a state that stopped being finite is the run's to report, not a reason to detect again;
+  // else the default rule (twice the speed) on the end velocities: one more detection, mostly
+  auto needed = [&](double reach, double margin) {
+    if (!std::isfinite(reach) || reach <= margin) return 0.0;
+    return 2.0 * reach + cmodel_.margin_floor;
+  };
+  DetectionMargins out;
+  out.others = needed(settings_.h * fastestShapeSpeed(model_, data_, cmodel_, t_m), stats_.margin);
+  out.balls = cmodel_.settings.margin_rule == MarginRule::Relative
+                  ? needed(settings_.h * ballClosingSpeed(model_, data_, cmodel_, t_m),
+                           stats_.margin_balls)
+                  : out.others;  // one margin for every pair
+  return out;
 }
 
-void TimeStepper::redoStep(double margin) {
+void TimeStepper::redoStep(const DetectionMargins& margins) {
   // back to the state after midpoint(): the detection swaps its lists and the warm starts
   // with the previous step's, so swap them back first (the solve's results are discarded)
   std::swap(cdata_.contacts, cdata_.previous);
@@ -173,7 +185,7 @@ void TimeStepper::redoStep(double margin) {
   limit_staged_ = limit_staged_start_;
   // the step's cost counts every solve; its other figures are those of the last
   const StepStats before = stats_;
-  detect(margin);
+  detect(margins);
   freeVelocity();
   assemble();
   solve();

@@ -85,10 +85,11 @@ struct StepStats {
   double work_normal = 0.0;   // sum_c P_N (U_N(k) + U_N(k+1)) / 2
   double work_tangent = 0.0;  // sum_c P_T . (U_T(k) + U_T(k+1)) / 2
   double t_detect = 0.0, t_assemble = 0.0, t_solve = 0.0, t_update = 0.0;  // seconds
-  int solves = 1;       // solves of the step: 1, or the rounds of candidate screening
-  int deferred = 0;     // candidates left out of the last solve by screening
-  int unassembled = 0;  // of which had no Jacobian rows (judged from the bodies' twists)
-  double margin = 0.0;  // detection margin of the step's last detection
+  int solves = 1;             // solves of the step: 1, or the rounds of candidate screening
+  int deferred = 0;           // candidates left out of the last solve by screening
+  int unassembled = 0;        // of which had no Jacobian rows (judged from the bodies' twists)
+  double margin = 0.0;        // detection margin of the step's last detection
+  double margin_balls = 0.0;  // the same for pairs of two balls (detection.margin_rule)
   // detection.verify_margin: detections after the first, each because the end velocities
   // outran the margin; and whether they still did after the last one allowed
   int redetections = 0;
@@ -127,20 +128,20 @@ class TimeStepper {
   double energy();  // kinetic + potential at the current state
 
  private:
-  void midpoint();                     // 1
-  void detect(double at_least = 0.0);  // 2, with a margin of at least `at_least`
-  // detection.verify_margin: the margin `at_least` a detection needs for the end velocities
-  // of the solve just done, or 0 when the step's margin covers them
-  double marginNeeded();
-  void redoStep(double margin);  // 2 to 5 again, from q_m
-  void freeVelocity();           // 4
-  void assemble();               // 3: Jacobian, then the problem
-  void assembleJacobian();       // 3: rows of the contacts not unassembled
-  void assembleProblem();        // 3: the problem of the contacts not deferred, warm-started
-  void solve();                  // 5, with candidate screening when set
-  void solveMoreauJean();        // 5, scheme A
-  void solveCatchingUp();        // 5, scheme B
-  void keepImpulses();           // the solve's impulses by contact: warm start of the next solve
+  void midpoint();                                     // 1
+  void detect(const DetectionMargins& at_least = {});  // 2, with margins of at least these
+  // detection.verify_margin: the margins `at_least` a detection needs for the end velocities
+  // of the solve just done; zero where the step's margins cover them
+  DetectionMargins marginNeeded();
+  void redoStep(const DetectionMargins& margins);  // 2 to 5 again, from q_m
+  void freeVelocity();                             // 4
+  void assemble();                                 // 3: Jacobian, then the problem
+  void assembleJacobian();                         // 3: rows of the contacts not unassembled
+  void assembleProblem();  // 3: the problem of the contacts not deferred, warm-started
+  void solve();            // 5, with candidate screening when set
+  void solveMoreauJean();  // 5, scheme A
+  void solveCatchingUp();  // 5, scheme B
+  void keepImpulses();     // the solve's impulses by contact: warm start of the next solve
   // contacts left out that break their law at the solve's velocities join (returns how many)
   int admitViolators();
   void update();  // 6

@@ -608,7 +608,7 @@ class SceneParser {
   }
 
   void parseDetection(const YamlField& f) {
-    f.allowOnly({"path", "speed_factor", "verify_margin", "margin", "self_collision",
+    f.allowOnly({"path", "speed_factor", "margin_rule", "verify_margin", "margin", "self_collision",
                  "max_initial_overlap", "periodic"});
     DetectionSettings& d = out_.spec.detection;
     const std::string path = f.text("path", "automatic");
@@ -622,6 +622,13 @@ class SceneParser {
       f["path"].fail("must be automatic, analytic or fcl");
     d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
     d.verify_margin = f.boolean("verify_margin", d.verify_margin);
+    const std::string rule = f.text("margin_rule", marginRuleName(d.margin_rule));
+    if (rule == "absolute")
+      d.margin_rule = MarginRule::Absolute;
+    else if (rule == "relative")
+      d.margin_rule = MarginRule::Relative;
+    else
+      f["margin_rule"].fail("must be absolute or relative");
     d.floor = f.nonNegative("margin", d.floor);
     d.self_collision = f.boolean("self_collision", d.self_collision);
     out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);

@@ -71,6 +71,12 @@ VARIANTS = {
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9"]),
+    # and with the balls' margin from their relative speeds (detection.margin_rule)
+    "fast5-rel": ("the same, relative ball margins",
+                  ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+                   "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
+                   "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9",
+                   "detection.margin_rule=relative"]),
     "fast-3e-2": ("the same at tolerance 3e-2",
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=3e-2", "detection.speed_factor=1.25"]),

@@ -145,6 +145,70 @@ TEST(Detection, MarginGrowsWithSpeedAndKeepsAFloor) {
               2.0 * 1e-3 * (5.0 + 10.0 * 0.02) + cmodel.margin_floor, 1e-15);
 }
 
+// The relative rule: balls that move together, whatever they spin, close no gap, so their
+// pair keeps the floor; the other pairs keep the absolute margin.
+TEST(Detection, RelativeBallMarginIgnoresSpinAndCommonMotion) {
+  const test::ShapeScene scene = test::shapeScene({Shape::disk(0.01), Shape::disk(0.02)});
+  ContactModel cmodel = scene.contactModel(DetectionPathChoice::Automatic);
+  cmodel.settings.margin_rule = MarginRule::Relative;
+  const double h = 1e-3;
+  Data data(scene.model);
+  const VectorX q = scene.model.neutralConfiguration();
+  VectorX v(6);
+  v << 1.0, 2.0, 50.0, 1.0, 2.0, -30.0;  // one velocity, opposite spins
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_DOUBLE_EQ(ballClosingSpeed(scene.model, data, cmodel, 0.0), 0.0);
+  DetectionMargins margins = detectionMargins(scene.model, data, cmodel, h, 0.0);
+  EXPECT_DOUBLE_EQ(margins.balls, cmodel.margin_floor);
+  EXPECT_DOUBLE_EQ(margins.others, detectionMargin(scene.model, data, cmodel, h, 0.0));
+  EXPECT_GT(margins.others, 2.0 * h * 30.0 * 0.02);
+  // (1, 2) and (3, 2) about their middle (2, 2): 1 m/s, below the fastest centre's 3.6 m/s
+  v << 1.0, 2.0, 50.0, 3.0, 2.0, 0.0;
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_DOUBLE_EQ(ballClosingSpeed(scene.model, data, cmodel, 0.0), 1.0);
+  margins = detectionMargins(scene.model, data, cmodel, h, 0.0);
+  EXPECT_NEAR(margins.balls, 2.0 * h * 1.0 + cmodel.margin_floor, 1e-15);
+  // the absolute rule: one margin for every pair, as before
+  cmodel.settings.margin_rule = MarginRule::Absolute;
+  margins = detectionMargins(scene.model, data, cmodel, h, 0.0);
+  EXPECT_EQ(margins.balls, margins.others);
+  EXPECT_EQ(margins.others, detectionMargin(scene.model, data, cmodel, h, 0.0));
+}
+
+// Pairs of two balls take the balls' margin, every other pair the other one.
+TEST(Detection, EachPairTakesItsOwnMargin) {
+  const test::ShapeScene scene = test::shapeScene(
+      {Shape::sphere(1.0), Shape::sphere(1.0), Shape::box(Vector3(2.0, 2.0, 2.0))});
+  for (DetectionPathChoice path : {DetectionPathChoice::Analytic, DetectionPathChoice::Fcl}) {
+    const ContactModel cmodel = scene.contactModel(path);
+    VectorX q = scene.model.neutralConfiguration();
+    test::placeBody(scene.model, q, 1, Vector3(2.05, 0.0, 0.0), Quaternion::Identity());
+    test::placeBody(scene.model, q, 2, Vector3(0.0, -2.05, 0.0), Quaternion::Identity());
+    Data data(scene.model);
+    forwardKinematics(scene.model, data, q);
+    ContactData cdata(scene.model, cmodel);
+    auto pairs = [&](const DetectionMargins& margins) {
+      detectContacts(scene.model, data, cmodel, cdata, 0.0, margins);
+      std::vector<std::pair<int, int>> out;
+      for (const Contact& c : cdata.contacts) out.emplace_back(c.key.geometry_a, c.key.geometry_b);
+      return out;
+    };
+    using Pairs = std::vector<std::pair<int, int>>;
+    // both gaps are 0.05; the second sphere is 0.48 from the box
+    EXPECT_EQ(pairs({0.01, 0.1}), (Pairs{{0, 2}})) << detectionPathName(cmodel.path);
+    EXPECT_EQ(pairs({0.1, 0.01}), (Pairs{{0, 1}})) << detectionPathName(cmodel.path);
+    EXPECT_EQ(pairs({0.1, 0.1}), (Pairs{{0, 1}, {0, 2}})) << detectionPathName(cmodel.path);
+  }
+}
+
+TEST(Detection, RelativeMarginNeedsTheCheck) {
+  DetectionSettings settings;
+  settings.margin_rule = MarginRule::Relative;
+  EXPECT_NO_THROW(settings.validate());
+  settings.verify_margin = false;
+  EXPECT_THROW(settings.validate(), InputError);
+}
+
 TEST(Detection, PathChoiceIsExplained) {
   const test::ShapeScene disks = test::shapeScene({Shape::disk(1.0), Shape::disk(1.0)});
   const ContactModel fast = disks.contactModel(DetectionPathChoice::Automatic);

@@ -520,6 +520,53 @@ TEST_P(BothSchemes, VerifiedMarginCatchesAContactTheStartSpeedMissed) {
   EXPECT_EQ(stepper.step().redetections, 0);
 }
 
+// detection.margin_rule: relative. A wall moving at 1 m/s touches ball A, which rests 1 mm
+// from ball B: at the start both balls rest, so their pair gets the floor as its margin and
+// is no candidate, but the wall sets A moving at 1 m/s and it would close 5 mm on B by the end
+// of the step. The check sees the balls' end velocities outrun their margin, detects again,
+// and IQS stops A at B. The absolute rule takes the wall's speed for every pair and needs no
+// second detection.
+TEST_P(BothSchemes, RelativeMarginCatchesARestingPairSetMovingWithinTheStep) {
+  const double r = 0.1, h = 0.01, speed = 1.0, gap = 1e-3;
+  ModelBuilder mb("pushed pair");
+  addFreeBody(mb, "a", solidSphereInertia(1.0, r));
+  addFreeBody(mb, "b", solidSphereInertia(1.0, r));
+  Pose wall_pose;  // the half-space's normal (local z) along +x, its face at x = 0
+  wall_pose.rotation = Eigen::AngleAxisd(0.5 * M_PI, Vector3::UnitY()).toRotationMatrix();
+  mb.addDrivenBody(
+      DrivenBody::constantTwist("wall", wall_pose, Vector3(speed, 0, 0), Vector3::Zero()));
+  mb.setGravity(Vector3::Zero());
+  const Model model = mb.build();
+  for (MarginRule rule : {MarginRule::Relative, MarginRule::Absolute}) {
+    ContactModelBuilder cb(model);
+    cb.materials().setDefaultLaw({0.0, 0.0});
+    cb.addGeometry("a", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(r));
+    cb.addGeometry("b", BodyRef::dynamic(1), Pose::identity(), Shape::sphere(r));
+    cb.addGeometry("wall", BodyRef::driven(0), Pose::identity(), Shape::halfSpace());
+    ContactModel cmodel = cb.build();
+    cmodel.settings.margin_rule = rule;
+    SchemeSettings s = settings(h);
+    s.normal_law = NormalLaw::Iqs;
+    TimeStepper stepper(model, cmodel, s);
+    VectorX q = model.neutralConfiguration();
+    // A's midpoint position touches the wall's midpoint face (x = speed h / 2)
+    const double a0 = r + 0.5 * h * speed;
+    q[0] = a0;
+    q[model.bodies[1].q_index] = a0 + 2.0 * r + gap;
+    stepper.reset(0.0, q, VectorX::Zero(12));
+    const StepStats& st = stepper.step();
+    const double a = stepper.q()[0], b = stepper.q()[model.bodies[1].q_index];
+    SCOPED_TRACE(marginRuleName(rule));
+    EXPECT_EQ(st.redetections, rule == MarginRule::Relative ? 1 : 0);
+    EXPECT_FALSE(st.margin_outrun);
+    if (rule == MarginRule::Relative) {
+      EXPECT_GT(st.margin_balls, 0.5 * h * speed);
+    }
+    EXPECT_GE(b - a - 2.0 * r, -1e-12);          // A pushed on, not into B
+    EXPECT_GT(a, a0 + 0.5 * h * speed - 1e-12);  // and A did move with the wall
+  }
+}
+
 // With every mu = 0 the friction stage is skipped, and B's frictionless stage solves the
 // same problem as A.
 TEST(SchemesAgree, FrictionlessPileSkipsTheFrictionStage) {
