@@ -468,16 +468,18 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];
-    cdata.points.clear();
     if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
-      const int image = cdata.contacts[c].key.feature;
-      ContactPoint p =
-          ballBall(cdata.geometry_pose[a].translation, ta.ball_radius,
-                   cdata.geometry_pose[b].translation + imageShift(cmodel.settings.periodic, image),
-                   tb.ball_radius);
-      p.feature = image;
-      cdata.points.push_back(p);
-    } else if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+      // a pair of balls has one contact, its feature the image it meets: the gap of ballBall
+      // alone, the bulk of a powder step's candidates
+      const Vector3 center_b = cdata.geometry_pose[b].translation +
+                               imageShift(cmodel.settings.periodic, cdata.contacts[c].key.feature);
+      gaps[c] =
+          (center_b - cdata.geometry_pose[a].translation).norm() - ta.ball_radius - tb.ball_radius;
+      ++c;
+      continue;
+    }
+    cdata.points.clear();
+    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], far, cdata.points);
     else

@@ -13,6 +13,7 @@
 #include "framework/energy.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
+#include "integrators/packed_rows.hpp"
 
 namespace sweep {
 
@@ -557,13 +558,32 @@ void TimeStepper::update() {
   const int n = problem_.size();
   // contact work with the local velocities of H(q_m) at the start and end of the step
   stats_.work_normal = stats_.work_tangent = 0.0;
+  // packed 3D rows (scheme A's powder rows): one pass for U and U_r, the generic reads' sums
+  // to the bit (rows without a rolling row carry R = 0)
+  const bool packed = problem_.dimension == 3 && static_cast<int>(problem_.rows3d.size()) == n;
+  const PackedRows3d rows(problem_);
+  auto velocities = [&](int c, const VectorX& v, Vector3& u, Vector2& u_rolling) {
+    if (packed) {
+      packedVelocity3d(rows.rows[c], rows, v, u, u_rolling);
+      return;
+    }
+    u = problem_.localVelocity(c, v);
+    if (problem_.rolling) u_rolling = problem_.rollingVelocity(c, v);
+  };
   for (int c = 0; c < n; ++c) {
-    const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + problem_.localVelocity(c, v_free_));
+    Vector3 u_end, u_start;
+    Vector2 rolling_end = Vector2::Zero(), rolling_start = Vector2::Zero();
+    velocities(c, v_free_, u_end, rolling_end);
+    const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + u_end);
     stats_.work_normal += P_[c].x() * u_mean.x();
     stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
-    if (problem_.contact[c] >= 0 && problem_.rolling)
-      stats_.work_tangent +=
-          R_[c].dot(0.5 * (problem_.rollingVelocity(c, v_) + problem_.rollingVelocity(c, v_free_)));
+    if (problem_.contact[c] >= 0 && problem_.rolling) {
+      if (packed)
+        velocities(c, v_, u_start, rolling_start);
+      else
+        rolling_start = problem_.rollingVelocity(c, v_);
+      stats_.work_tangent += R_[c].dot(0.5 * (rolling_start + rolling_end));
+    }
   }
   v_ = v_free_;
   integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);
