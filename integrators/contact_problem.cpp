@@ -120,7 +120,7 @@ void ContactProblem::pack3d() {
   rows3d.clear();
   h3d.clear();
   minv3d.clear();
-  bodies3d.clear();
+  bodies3d.resize(direct_body_forms);  // the assembly's own records stay
   if (dimension != 3) return;
   for (int c = 0; c < size(); ++c) {
     PackedRow3d row;
@@ -132,8 +132,11 @@ void ContactProblem::pack3d() {
     const bool diagonal_row = isDiagonal(c);
     row.begin = static_cast<int>(h3d.size());
     PackedBodies3d bodies;
-    const bool body_form_row = pack_body_form && packBodies3d(*this, c, bodies);
-    if (body_form_row) {
+    const bool body_form_row =
+        bodyForm(c) >= 0 || (pack_body_form && packBodies3d(*this, c, bodies));
+    if (bodyForm(c) >= 0) {
+      row.body_form = bodyForm(c);
+    } else if (body_form_row) {
       row.body_form = static_cast<int>(bodies3d.size());
       bodies3d.push_back(bodies);
     }
@@ -167,8 +170,10 @@ void ContactProblem::pack3d() {
         row.rolling_isotropic_inverse = 1.0 / W_r(0, 0);
       // H_r^T M^-1 H_c: how the contact's own impulse turns the rolling velocity
       if (diagonal_row) {
-        for (int k = begin[c]; k < begin[c + 1]; ++k)
-          row.rolling_coupling += rolling_h[k] * (h_inverse_mass[k] * h[k]).transpose();
+        forEachDiagonalEntry(c,
+                             [&](int, const Vector3& h_k, const Vector2& h_r, double inverse_mass) {
+                               row.rolling_coupling += h_r * (inverse_mass * h_k).transpose();
+                             });
       } else {
         for (int m = minv_begin[c]; m < minv_begin[c + 1]; ++m) {
           if (minv_dof[m] >= static_cast<int>(pack_minv_slot.size()))
@@ -187,6 +192,40 @@ void ContactProblem::pack3d() {
   }
 }
 
+namespace {
+
+// The per-body part of rowInBodyForm, computed once: Data's constant inverses do not change.
+void findFreeParticles(const Model& model, const Data& data, ContactProblemWorkspace& ws) {
+  if (ws.free_particle.size() == model.bodies.size()) return;
+  ws.free_particle.assign(model.bodies.size(), 0);
+  for (std::size_t b = 0; b < model.bodies.size(); ++b) {
+    const Body& body = model.bodies[b];
+    if (body.parent >= 0 || body.joint.type != JointType::Floating) continue;
+    // the Jacobian's linear columns are the joint frame's axes: the world's, exactly
+    if (body.joint_placement.rotation != Matrix3::Identity()) continue;
+    const double* inverse = data.constant_inverse_diagonal.data() + body.v_index;
+    bool particle = true;
+    for (int i = 0; i < 6; ++i) particle = particle && inverse[i] > 0.0;
+    for (int i = 1; i < 3; ++i) particle = particle && sameBits(inverse[i], inverse[0]);
+    ws.free_particle[b] = particle ? 1 : 0;
+  }
+}
+
+}  // namespace
+
+bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmodel,
+                   const Contact& contact, ContactProblemWorkspace& workspace) {
+  if (cmodel.dimension != 3) return false;
+  findFreeParticles(model, data, workspace);
+  bool moving = false;
+  for (const BodyRef& body : {contact.body_a, contact.body_b}) {
+    if (body.kind != BodyRef::Kind::Dynamic) continue;
+    if (!workspace.free_particle[body.index]) return false;
+    moving = true;
+  }
+  return moving;
+}
+
 double touchingGap(const ContactModel& cmodel) {
   return 1e-9 * cmodel.margin_floor;
 }
@@ -199,9 +238,10 @@ double normalBias(NormalLaw law, double restitution, double u_start, double gap,
 }
 
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
-                            const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
-                            const VectorX& v_start, ContactProblem& p, ContactProblemWorkspace& ws,
-                            const VectorX* v_free, const std::vector<char>* deferred) {
+                            const ContactData& cdata, double t, NormalLaw law, double tau,
+                            const VectorX& q_m, const VectorX& v_start, ContactProblem& p,
+                            ContactProblemWorkspace& ws, const VectorX* v_free,
+                            const std::vector<char>* deferred) {
   const ContactJacobian& J = cdata.jacobian;
   p.dimension = cmodel.dimension;
   p.contact.clear();
@@ -213,6 +253,9 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.minv_h.clear();
   p.h_inverse_mass.clear();
   p.diagonal.clear();
+  p.row_body_form.clear();
+  p.bodies3d.clear();
+  p.direct_body_forms = 0;
   p.delassus.clear();
   p.delassus_inverse.clear();
   p.normal_compliance_inverse.clear();
@@ -239,9 +282,57 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   };
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
+  // the rest of a row once its W_cc and W_r are known: islands, inverse, velocities and bias
+  // (ws.touched holds the components of the row)
+  auto finishRowTail = [&](int pc, Matrix3 W, Matrix2 W_r, const Vector3& known, double gap,
+                           double mu, double e, const Vector2& known_spin, double rolling_bound) {
+    // islands: the components of one row are joined
+    ws.row_component.push_back(ws.touched.front());
+    for (int comp : ws.touched) {
+      const int a = root(ws.touched.front()), b = root(comp);
+      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+    }
+
+    if (p.dimension == 2) {
+      W.row(2).setZero();
+      W.col(2).setZero();
+    }
+    p.delassus.push_back(W);
+    // a row without friction (mu = 0, or no tangential motion at all, as a joint limit)
+    // is solved on its normal alone: its tangential block may be singular
+    const double W_TT = p.dimension == 2 ? W(1, 1) : W(1, 1) + W(2, 2);
+    if (!(W_TT > 1e-12 * W(0, 0))) mu = 0.0;
+    Matrix3 W_inverse = Matrix3::Zero();
+    if (mu == 0.0)
+      W_inverse(0, 0) = 1.0 / W(0, 0);
+    else if (p.dimension == 2)
+      W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
+    else
+      W_inverse = W.inverse();
+    p.delassus_inverse.push_back(W_inverse);
+    p.normal_compliance_inverse.push_back(1.0 / W(0, 0));
+    p.known.push_back(known);
+    p.gap.push_back(gap);
+    p.friction.push_back(mu);
+    p.restitution.push_back(e);
+    const Vector3 u_start = p.localVelocity(pc, v_start);
+    p.velocity_start.push_back(u_start);
+    p.normal_bias.push_back(normalBias(law, e, u_start.x(), gap, tau));
+    if (p.rolling) {
+      if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
+      // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
+      if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
+      p.rolling_delassus.push_back(W_r);
+      p.rolling_known.push_back(known_spin);
+      p.rolling_bound.push_back(rolling_bound);
+    }
+  };
+
+  // one row block: H entries already pushed; computes M^-1 H, W_cc, then the rest
   auto finishRow = [&](const Vector3& known, double gap, double mu, double e,
                        const Vector2& known_spin, double rolling_bound) {
     const int pc = static_cast<int>(p.begin.size()) - 1;
+    p.row_body_form.push_back(-1);
     p.begin.push_back(static_cast<int>(p.dof.size()));
     // M^-1 H_c, component by component (a contact touches at most two)
     ws.touched.clear();
@@ -335,55 +426,116 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
         ws.minv_slot[p.minv_dof[m]] = -1;
     }
-    // islands: the components of one row are joined
-    ws.row_component.push_back(ws.touched.front());
-    for (int comp : ws.touched) {
-      const int a = root(ws.touched.front()), b = root(comp);
-      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
-    }
+    finishRowTail(pc, W, W_r, known, gap, mu, e, known_spin, rolling_bound);
+  };
 
-    if (p.dimension == 2) {
-      W.row(2).setZero();
-      W.col(2).setZero();
+  // A row over free particles, written straight in body form from the contact's frame and
+  // points (rowInBodyForm): the Jacobian's columns of a free body with the arithmetic of
+  // assembleContactJacobian, W_cc and W_r over the entries the record stands for in their
+  // order, so the row has the bits of one assembled from entries and packed by pack3d. On a
+  // powder bed this skips three copies of every row (Jacobian, H entries, packing).
+  auto bodyFormRow = [&](const Contact& contact) {
+    const int pc = static_cast<int>(p.begin.size()) - 1;
+    p.begin.push_back(static_cast<int>(p.dof.size()));
+    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+    p.diagonal.push_back(1);
+    ContactProblem::PackedBodies3d b;
+    Vector3 known = Vector3::Zero();
+    Vector2 spin = Vector2::Zero();
+    const Vector3& roll1 = contact.tangent1;
+    const Vector3& roll2 = contact.tangent2;
+    ws.touched.clear();
+    for (int side = 0; side < 2; ++side) {
+      const BodyRef& ref = side == 0 ? contact.body_a : contact.body_b;
+      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
+      const double sign = side == 0 ? -1.0 : 1.0;
+      if (ref.kind == BodyRef::Kind::Driven) {
+        const DrivenBody& driven = model.driven_bodies[ref.index];
+        const Vector6 twist = driven.twist(t);
+        const Vector3 velocity = driven.pointVelocity(point, t);
+        known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
+                                contact.tangent2.dot(velocity));
+        spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
+        continue;
+      }
+      if (ref.kind != BodyRef::Kind::Dynamic) continue;
+      const Body& body = model.bodies[ref.index];
+      const Pose& pose = data.world_pose[ref.index];
+      const Vector3 lever = point - pose.translation;
+      const bool first = ws.touched.empty();
+      ws.touched.push_back(body.component);
+      const double* inverse = data.constant_inverse_diagonal.data() + body.v_index;
+      // block b's linear coefficients are block a's negated: not stored
+      if (first) {
+        const Matrix3& frame = body.joint_placement.rotation;
+        for (int k = 0; k < 3; ++k) {
+          const Vector3 linear = frame.col(k).eval();
+          b.translation_normal[k] = 0.0 + sign * contact.normal.dot(linear);
+          b.translation[0][k] = 0.0 + sign * contact.tangent1.dot(linear);
+          b.translation[1][k] = 0.0 + sign * contact.tangent2.dot(linear);
+        }
+        b.dof_a = body.v_index;
+        b.inverse_mass_a = inverse[0];
+      } else {
+        b.dof_b = body.v_index;
+        b.inverse_mass_b = inverse[0];
+      }
+      double(&normal)[3] = first ? b.rotation_normal_a : b.rotation_normal_b;
+      double(&rest)[4][3] = first ? b.rotation_a : b.rotation_b;
+      double(&inertia)[3] = first ? b.inverse_inertia_a : b.inverse_inertia_b;
+      for (int k = 0; k < 3; ++k) {
+        const Vector3 w = pose.rotation.col(k);
+        const Vector3 linear = w.cross(lever).eval();
+        normal[k] = 0.0 + sign * contact.normal.dot(linear);
+        rest[0][k] = 0.0 + sign * contact.tangent1.dot(linear);
+        rest[1][k] = 0.0 + sign * contact.tangent2.dot(linear);
+        if (p.rolling) {
+          rest[2][k] = 0.0 + sign * roll1.dot(w);
+          rest[3][k] = 0.0 + sign * roll2.dot(w);
+        }
+        inertia[k] = inverse[3 + k];
+      }
     }
-    p.delassus.push_back(W);
-    // a row without friction (mu = 0, or no tangential motion at all, as a joint limit)
-    // is solved on its normal alone: its tangential block may be singular
-    const double W_TT = p.dimension == 2 ? W(1, 1) : W(1, 1) + W(2, 2);
-    if (!(W_TT > 1e-12 * W(0, 0))) mu = 0.0;
-    Matrix3 W_inverse = Matrix3::Zero();
-    if (mu == 0.0)
-      W_inverse(0, 0) = 1.0 / W(0, 0);
-    else if (p.dimension == 2)
-      W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
-    else
-      W_inverse = W.inverse();
-    p.delassus_inverse.push_back(W_inverse);
-    p.normal_compliance_inverse.push_back(1.0 / W(0, 0));
-    p.known.push_back(known);
-    p.gap.push_back(gap);
-    p.friction.push_back(mu);
-    p.restitution.push_back(e);
-    const Vector3 u_start = p.localVelocity(pc, v_start);
-    p.velocity_start.push_back(u_start);
-    p.normal_bias.push_back(normalBias(law, e, u_start.x(), gap, tau));
-    if (p.rolling) {
-      if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
-      // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
-      if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
-      p.rolling_delassus.push_back(W_r);
-      p.rolling_known.push_back(known_spin);
-      p.rolling_bound.push_back(rolling_bound);
-    }
+    p.row_body_form.push_back(static_cast<int>(p.bodies3d.size()));
+    p.bodies3d.push_back(b);
+    p.direct_body_forms = static_cast<int>(p.bodies3d.size());
+    // W and W_r as finishRow sums them over the entries
+    double w[3][3] = {}, w_r[2][2] = {};
+    ContactProblem::forEachBodyFormEntry(
+        b, [&](int, const Vector3& h, const Vector2& h_r, double inverse_mass) {
+          for (int i = 0; i < 3; ++i) {
+            const double scaled = inverse_mass * h[i];
+            for (int j = 0; j < 3; ++j) w[i][j] += scaled * h[j];
+          }
+          if (p.rolling) {
+            for (int i = 0; i < 2; ++i) {
+              const double scaled = inverse_mass * h_r[i];
+              for (int j = 0; j < 2; ++j) w_r[i][j] += scaled * h_r[j];
+            }
+          }
+        });
+    Matrix3 W;
+    Matrix2 W_r;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) W(i, j) = w[i][j];
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
+    finishRowTail(pc, W, W_r, known, contact.gap, contact.friction, contact.restitution, spin,
+                  contact.rolling);
   };
 
   const double touching = touchingGap(cmodel);
+  const bool body_form = p.pack_body_form && p.dimension == 3;
   for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
     const Contact& contact = cdata.contacts[c];
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
     if (law == NormalLaw::Vel && contact.gap > touching) continue;
     if (deferred != nullptr && (*deferred)[c]) continue;
     p.contact.push_back(c);
+    if (body_form && rowInBodyForm(model, data, cmodel, contact, ws)) {
+      bodyFormRow(contact);
+      continue;
+    }
     for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
       p.dof.push_back(J.dof[k]);
       p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);

@@ -12,6 +12,7 @@
 
 namespace sweep {
 
+struct Contact;
 struct ContactData;
 struct ContactModel;
 
@@ -42,6 +43,11 @@ struct ContactProblem {
   // assembly wrote and a local update read. Rows read through the members below.
   std::vector<double> h_inverse_mass;
   std::vector<char> diagonal;  // per row: the case above (problems built by hand may omit it)
+  // per row: its record in bodies3d when the assembly wrote it straight in body form, with no
+  // H entries (begin[c] == begin[c + 1]), else -1; empty in problems built by hand. The
+  // members below read such a row through its record, in the entries' order.
+  std::vector<int> row_body_form;
+  int direct_body_forms = 0;  // bodies3d[0, this) are those records; pack3d keeps them
 
   std::vector<Matrix3> delassus;                  // W_cc, d x d used
   std::vector<Matrix3> delassus_inverse;          // W_cc^-1 (d x d block; zero elsewhere)
@@ -134,8 +140,10 @@ struct ContactProblem {
   std::vector<PackedRow3d> rows3d;
   std::vector<PackedEntry3d> h3d, minv3d;
   std::vector<PackedBodies3d> bodies3d;
-  bool pack_body_form = true;  // pack3d's choice; false: every row in entry form (tests compare)
-  void pack3d();               // from the arrays above; call after changing them
+  // the assembly's and pack3d's choice; false: every row in entry form (tests compare). Set it
+  // before the assembly: a row the assembly wrote in body form has no entries to fall back on.
+  bool pack_body_form = true;
+  void pack3d();  // from the arrays above; call after changing them
   // pack3d's lookup from a velocity index to the row's M^-1 H entry (-1 between rows), grown
   // to the largest index seen
   std::vector<int> pack_minv_slot;
@@ -145,8 +153,54 @@ struct ContactProblem {
     return island_begin.empty() ? 1 : static_cast<int>(island_begin.size()) - 1;
   }
 
+  int bodyForm(int c) const {
+    return c < static_cast<int>(row_body_form.size()) ? row_body_form[c] : -1;
+  }
+  // visit(dof, h, h_rolling, inverse_mass) for each H entry of row c, in order: the stored
+  // entries of a diagonal row, or those a row in body form stands for
+  template <class Visit>
+  void forEachDiagonalEntry(int c, Visit&& visit) const {
+    const int form = bodyForm(c);
+    if (form >= 0) {
+      forEachBodyFormEntry(bodies3d[form], visit);
+      return;
+    }
+    for (int k = begin[c]; k < begin[c + 1]; ++k)
+      visit(dof[k], h[k], rolling ? rolling_h[k] : Vector2::Zero().eval(), h_inverse_mass[k]);
+  }
+  template <class Visit>
+  static void forEachBodyFormEntry(const PackedBodies3d& b, Visit&& visit) {
+    auto block = [&](int first, double sign, double inverse_mass, const double(&rotation_normal)[3],
+                     const double(&rotation)[4][3], const double(&inverse_inertia)[3]) {
+      for (int i = 0; i < 3; ++i)
+        visit(first + i,
+              Vector3(sign * b.translation_normal[i], sign * b.translation[0][i],
+                      sign * b.translation[1][i]),
+              Vector2::Zero().eval(), inverse_mass);
+      for (int i = 0; i < 3; ++i)
+        visit(first + 3 + i, Vector3(rotation_normal[i], rotation[0][i], rotation[1][i]),
+              Vector2(rotation[2][i], rotation[3][i]), inverse_inertia[i]);
+    };
+    block(b.dof_a, 1.0, b.inverse_mass_a, b.rotation_normal_a, b.rotation_a, b.inverse_inertia_a);
+    if (b.dof_b >= 0)
+      block(b.dof_b, -1.0, b.inverse_mass_b, b.rotation_normal_b, b.rotation_b,
+            b.inverse_inertia_b);
+  }
+  // visit(dof) for each velocity row c's impulse moves
+  template <class Visit>
+  void forEachMovedDof(int c, Visit&& visit) const {
+    if (isDiagonal(c))
+      forEachDiagonalEntry(c, [&](int k, const Vector3&, const Vector2&, double) { visit(k); });
+    for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) visit(minv_dof[k]);
+  }
+
   Vector3 localVelocity(int c, const VectorX& v) const {
     Vector3 u = known[c];
+    if (bodyForm(c) >= 0) {
+      forEachDiagonalEntry(
+          c, [&](int k, const Vector3& h_k, const Vector2&, double) { u += h_k * v[k]; });
+      return u;
+    }
     for (int k = begin[c]; k < begin[c + 1]; ++k) u += h[k] * v[dof[k]];
     return u;
   }
@@ -154,21 +208,29 @@ struct ContactProblem {
   // v += M^-1 H_c dP
   void applyImpulse(int c, const Vector3& dP, VectorX& v) const {
     if (isDiagonal(c)) {
-      for (int k = begin[c]; k < begin[c + 1]; ++k) v[dof[k]] += h_inverse_mass[k] * h[k].dot(dP);
+      forEachDiagonalEntry(c, [&](int k, const Vector3& h_k, const Vector2&, double inverse_mass) {
+        v[k] += inverse_mass * h_k.dot(dP);
+      });
       return;
     }
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k) v[minv_dof[k]] += minv_h[k].dot(dP);
   }
   Vector2 rollingVelocity(int c, const VectorX& v) const {
     Vector2 u = rolling_known[c];
+    if (bodyForm(c) >= 0) {
+      forEachDiagonalEntry(
+          c, [&](int k, const Vector3&, const Vector2& h_r, double) { u += h_r * v[k]; });
+      return u;
+    }
     for (int k = begin[c]; k < begin[c + 1]; ++k) u += rolling_h[k] * v[dof[k]];
     return u;
   }
   // v += M^-1 H_r,c dR
   void applyRolling(int c, const Vector2& dR, VectorX& v) const {
     if (isDiagonal(c)) {
-      for (int k = begin[c]; k < begin[c + 1]; ++k)
-        v[dof[k]] += h_inverse_mass[k] * rolling_h[k].dot(dR);
+      forEachDiagonalEntry(c, [&](int k, const Vector3&, const Vector2& h_r, double inverse_mass) {
+        v[k] += inverse_mass * h_r.dot(dR);
+      });
       return;
     }
     for (int k = minv_begin[c]; k < minv_begin[c + 1]; ++k)
@@ -188,7 +250,18 @@ struct ContactProblemWorkspace {
   // per velocity index: its M^-1 H entry in the row being finished, -1 outside it. W_cc and
   // W_r then pair each H entry with its M^-1 H entry in one lookup instead of a double loop.
   std::vector<int> minv_slot;
+  // per body: a free particle, whose contacts the assembly writes straight in body form
+  // (see rowInBodyForm); filled on first use from the constant inverse masses of the Data
+  std::vector<char> free_particle;
 };
+
+// Whether assembleContactProblem writes the row of `contact` straight in body form from its
+// frame and points, without Jacobian entries (3D; every moving side a free particle: the root
+// floating joint of a body with a constant diagonal inverse mass, one translational inverse
+// mass and the world's axes as its linear frame; the other side, if not moving, the world or a
+// driven body). Its Jacobian rows are then not read: the stepper skips them.
+bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmodel,
+                   const Contact& contact, ContactProblemWorkspace& workspace);
 
 // A contact that touches exactly (a block placed on a floor) has a computed gap of +-1e-17 m
 // from round-off; with the bare test gap <= 0, one of a block's two corners would leave the
@@ -196,8 +269,10 @@ struct ContactProblemWorkspace {
 // 1e-12 of the smallest shape size) count as closed for the VEL law.
 double touchingGap(const ContactModel& cmodel);
 
-// Builds the problem from cdata.contacts/jacobian (assembled at q_m) and the factored mass
-// blocks of data (at q_m). tau = h/2 is the time over which a gap closes (midpoint scheme).
+// Builds the problem from cdata.contacts/jacobian (assembled at q_m and time t) and the
+// factored mass blocks of data (at q_m); rows in body form (rowInBodyForm) from the contacts
+// alone, with the driven bodies' motion at t. tau = h/2 is the time over which a gap closes
+// (midpoint scheme).
 // Joint limits (Model::limits) join the same solve as frictionless unilateral rows with gap
 // side (q_m - bound); with the gap-aware laws a limit enters once it can close within the
 // step: gap <= 2 tau |joint rate|, the rate taken at the start of the step and, when given,
@@ -206,8 +281,8 @@ double touchingGap(const ContactModel& cmodel);
 // deferred (when given, one flag per detected contact): contacts left out of this problem;
 // candidate screening (time_stepper.hpp) solves without them and checks them afterwards.
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
-                            const ContactData& cdata, NormalLaw law, double tau, const VectorX& q_m,
-                            const VectorX& v_start, ContactProblem& problem,
+                            const ContactData& cdata, double t, NormalLaw law, double tau,
+                            const VectorX& q_m, const VectorX& v_start, ContactProblem& problem,
                             ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr,
                             const std::vector<char>* deferred = nullptr);
 

@@ -411,9 +411,7 @@ class NncgMomentum {
         ws.island_dofs[dofs_++] = dof;
       };
       // the dofs a row's impulse moves: its M^-1 H entries, or its H entries if diagonal
-      if (p.isDiagonal(c))
-        for (int e = p.begin[c]; e < p.begin[c + 1]; ++e) add(p.dof[e]);
-      for (int e = p.minv_begin[c]; e < p.minv_begin[c + 1]; ++e) add(p.minv_dof[e]);
+      p.forEachMovedDof(c, add);
     }
     int slot = 0;
     for (int k = 0; k < n; ++k) {

@@ -272,8 +272,16 @@ void TimeStepper::assembleJacobian() {
   const double max_gap = settings_.normal_law == NormalLaw::Vel
                              ? touchingGap(cmodel_)
                              : std::numeric_limits<double>::infinity();
+  // rows the problem writes in body form from the contacts need no Jacobian rows: free
+  // particles, the bulk of a granular step (contact_problem.hpp, rowInBodyForm)
+  const int m = static_cast<int>(cdata_.contacts.size());
+  jacobian_skip_.assign(m, 0);
+  for (int id = 0; id < m; ++id)
+    jacobian_skip_[id] = (!unassembled_.empty() && unassembled_[id]) ||
+                         (problem_.pack_body_form &&
+                          rowInBodyForm(model_, data_, cmodel_, cdata_.contacts[id], problem_ws_));
   assembleContactJacobian(model_, data_, cmodel_, cdata_, t_ + 0.5 * settings_.h, max_gap,
-                          unassembled_.empty() ? nullptr : &unassembled_);
+                          &jacobian_skip_);
   jacobian_stale_ = false;
   stats_.t_assemble += seconds(start);
 }
@@ -351,9 +359,9 @@ void TimeStepper::assemble() {
 
 void TimeStepper::assembleProblem() {
   const auto start = Clock::now();
-  assembleContactProblem(model_, data_, cmodel_, cdata_, settings_.normal_law, 0.5 * settings_.h,
-                         q_m_, v_, problem_, problem_ws_, &v_free_,
-                         deferred_.empty() ? nullptr : &deferred_);
+  assembleContactProblem(model_, data_, cmodel_, cdata_, t_ + 0.5 * settings_.h,
+                         settings_.normal_law, 0.5 * settings_.h, q_m_, v_, problem_, problem_ws_,
+                         &v_free_, deferred_.empty() ? nullptr : &deferred_);
   const int n = problem_.size();
   stats_.active = n;
   stats_.islands = problem_.islandCount();

@@ -185,7 +185,8 @@ class TimeStepper {
   std::vector<double> screening_bias_;  // the law's bias of each contact left out
   // left out without Jacobian rows: judged from its bodies' twists
   std::vector<char> unassembled_;
-  bool jacobian_stale_ = false;  // an admitted contact has no rows yet
+  std::vector<char> jacobian_skip_;  // unassembled, or written in body form by the assembly
+  bool jacobian_stale_ = false;      // an admitted contact has no rows yet
   // world twists of the root bodies at the step's start, contact-free, and predicted or final
   std::vector<Vector6> start_twist_, free_twist_, end_twist_;
   VectorX v_contact_free_;

@@ -530,9 +530,10 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   }
 }
 
-// Rows over one or two free spheres are packed in body form (one frame, two angular blocks)
-// instead of 6 or 12 entries. The form is a re-encoding read in the entries' order: both
-// schemes' solvers give the same bits from either.
+// Rows over one or two free spheres are written in body form (one frame, two angular blocks)
+// straight from the contacts, instead of Jacobian rows packed as 6 or 12 entries. The form is
+// a re-encoding read in the entries' order: the rows have the same W_cc, W_r, velocities and
+// biases to the bit, and both schemes' solvers give the same bits from either.
 TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
   const Scene& scene = heap.scene;
@@ -548,10 +549,24 @@ TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
   EXPECT_EQ(body_rows, bodies.size());  // spheres on spheres and on the plate
   EXPECT_GT(two_body_rows, bodies.size() / 2);
   EXPECT_GT(body_rows, two_body_rows);
-  ContactProblem entries = bodies;
-  entries.pack_body_form = false;
-  entries.pack3d();
+  EXPECT_EQ(bodies.direct_body_forms, bodies.size());  // none went through the Jacobian
+  const ContactProblem entries =
+      test::problemAt(scene, heap.q, heap.v, heap.h, NormalLaw::Iqs, false).problem;
+  ASSERT_EQ(entries.size(), bodies.size());
   for (const auto& row : entries.rows3d) ASSERT_LT(row.body_form, 0);
+  for (int c = 0; c < bodies.size(); ++c) {
+    ASSERT_TRUE(entries.delassus[c] == bodies.delassus[c]) << c;
+    ASSERT_TRUE(entries.delassus_inverse[c] == bodies.delassus_inverse[c]) << c;
+    ASSERT_TRUE(entries.rolling_delassus[c] == bodies.rolling_delassus[c]) << c;
+    ASSERT_TRUE(entries.velocity_start[c] == bodies.velocity_start[c]) << c;
+    ASSERT_TRUE(entries.known[c] == bodies.known[c]) << c;
+    ASSERT_EQ(entries.normal_bias[c], bodies.normal_bias[c]) << c;
+    ASSERT_TRUE(entries.rows3d[c].rolling_coupling == bodies.rows3d[c].rolling_coupling) << c;
+    ASSERT_EQ(entries.rolling_bound[c], bodies.rolling_bound[c]) << c;
+  }
+  // the islands too
+  ASSERT_EQ(entries.island_begin, bodies.island_begin);
+  ASSERT_EQ(entries.island_rows, bodies.island_rows);
 
   NlgsSettings solver;
   solver.max_iterations = 60;

@@ -19,24 +19,28 @@ struct StepProblem {
   VectorX v_free;
 };
 
-// The problem of the step that would start at the stepper's current state (detection at
-// that state: the tests need a realistic problem, not the exact midpoint one).
-inline StepProblem problemAt(const Scene& scene, const TimeStepper& stepper, NormalLaw law) {
+// The problem of the step that would start at state (q, v) (detection at that state: the
+// tests need a realistic problem, not the exact midpoint one). body_form: whether the
+// assembly may write rows over free particles in body form (ContactProblem::pack_body_form).
+inline StepProblem problemAt(const Scene& scene, const VectorX& q, const VectorX& v, double h,
+                             NormalLaw law, bool body_form = true) {
   const Model& model = scene.model;
-  const double h = stepper.settings().h;
   Data data(model);
   ContactData cdata(model, scene.cmodel);
-  const VectorX q = stepper.q(), v = stepper.v();
   forwardKinematics(model, data, q, v);
   detectContacts(model, data, scene.cmodel, cdata, 0.0,
                  detectionMargin(model, data, scene.cmodel, h, 0.0));
   StepProblem out;
+  out.problem.pack_body_form = body_form;
   out.v_free = v + h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
   assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
   ContactProblemWorkspace workspace(model);
-  assembleContactProblem(model, data, scene.cmodel, cdata, law, 0.5 * h, q, v, out.problem,
+  assembleContactProblem(model, data, scene.cmodel, cdata, 0.0, law, 0.5 * h, q, v, out.problem,
                          workspace);
   return out;
+}
+inline StepProblem problemAt(const Scene& scene, const TimeStepper& stepper, NormalLaw law) {
+  return problemAt(scene, stepper.q(), stepper.v(), stepper.settings().h, law);
 }
 
 // A scene stepped `steps` times from its initial state with `settings` (its applied forces
@@ -44,13 +48,17 @@ inline StepProblem problemAt(const Scene& scene, const TimeStepper& stepper, Nor
 struct SettledProblem {
   Scene scene;
   StepProblem step;
+  VectorX q, v;  // the state the step starts from
+  double h = 0.0;
 };
 inline SettledProblem settledProblem(Scene scene, const SchemeSettings& settings, int steps,
                                      NormalLaw law) {
-  SettledProblem out{std::move(scene), {}};
+  SettledProblem out{std::move(scene), {}, {}, {}, settings.h};
   TimeStepper stepper(out.scene.model, out.scene.cmodel, settings, out.scene.forces);
   stepper.reset(0.0, out.scene.q0, out.scene.v0);
   for (int k = 0; k < steps; ++k) stepper.step();
+  out.q = stepper.q();
+  out.v = stepper.v();
   out.step = problemAt(out.scene, stepper, law);
   return out;
 }
