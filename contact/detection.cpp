@@ -354,7 +354,9 @@ void sortPairs(int geometries, ContactData& cdata) {
   for (int g = 0; g < geometries; ++g) {
     const int run_end = start[g];  // after the scatter, start[g] is the end of g's run
     if (run_end - run_begin > kInsertionRun) {
-      std::sort(pairs.begin() + run_begin, pairs.begin() + run_end);
+      // a plate's run comes in grain order already
+      if (!std::is_sorted(pairs.begin() + run_begin, pairs.begin() + run_end))
+        std::sort(pairs.begin() + run_begin, pairs.begin() + run_end);
     } else {
       for (int k = run_begin + 1; k < run_end; ++k)
         for (int m = k; m > run_begin && pairs[m] < pairs[m - 1]; --m)

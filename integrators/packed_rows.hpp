@@ -21,8 +21,9 @@ struct PackedRows3d {
 // a's negated: (-x) * y is -(x * y) exactly, so both forms give the same bits.
 
 // U_N = H_N^T v + known_N alone
-inline double packedNormalVelocity3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
-                                     const VectorX& v) {
+[[gnu::always_inline]] inline double packedNormalVelocity3d(const ContactProblem::PackedRow3d& r,
+                                                            const PackedRows3d& s,
+                                                            const VectorX& v) {
   double u = r.known.x();
   if (r.body_form < 0) {
     for (int k = r.begin; k < r.end; ++k) u += s.h[k].normal * v[s.h[k].dof];
@@ -40,8 +41,9 @@ inline double packedNormalVelocity3d(const ContactProblem::PackedRow3d& r, const
 }
 
 // (U_c, U_r) = H^T v + known on a packed 3D row: one pass over its entries
-inline void packedVelocity3d(const ContactProblem::PackedRow3d& r, const PackedRows3d& s,
-                             const VectorX& v, Vector3& u, Vector2& u_rolling) {
+[[gnu::always_inline]] inline void packedVelocity3d(const ContactProblem::PackedRow3d& r,
+                                                    const PackedRows3d& s, const VectorX& v,
+                                                    Vector3& u, Vector2& u_rolling) {
   u = r.known;
   u_rolling = r.rolling_known;
   if (r.body_form < 0) {
@@ -57,8 +59,9 @@ inline void packedVelocity3d(const ContactProblem::PackedRow3d& r, const PackedR
     return;
   }
   const ContactProblem::PackedBodies3d& b = s.bodies[r.body_form];
+  // inlined with `negated` a constant: the sweeps' hot path (docs/powder_bed.md)
   auto block = [&](const double* vblock, bool negated, const double(&rotation_normal)[3],
-                   const double(&rotation)[4][3]) {
+                   const double(&rotation)[4][3]) __attribute__((always_inline)) {
     for (int i = 0; i < 3; ++i) {
       const double vk = vblock[i];
       if (negated) {
@@ -96,7 +99,7 @@ inline void packedVelocity3d(const ContactProblem::PackedRow3d& r, const PackedR
                        b.translation[1][i] * dP.z();
     auto block = [&](double* vblock, double inverse_mass, bool negated,
                      const double(&rotation_normal)[3], const double(&rotation)[4][3],
-                     const double(&inverse_inertia)[3]) {
+                     const double(&inverse_inertia)[3]) __attribute__((always_inline)) {
       for (int i = 0; i < 3; ++i) {
         if (negated)
           vblock[i] -= inverse_mass * translation[i];

@@ -175,6 +175,26 @@ TEST(Detection, RelativeBallMarginIgnoresSpinAndCommonMotion) {
   EXPECT_EQ(margins.others, detectionMargin(scene.model, data, cmodel, h, 0.0));
 }
 
+// In 3D the centres' velocities are compared in the world frame: two spheres turned
+// differently, with one world velocity and different spins, close on nothing.
+TEST(Detection, RelativeBallMarginComparesWorldVelocities) {
+  const test::ShapeScene scene = test::shapeScene({Shape::sphere(0.01), Shape::sphere(0.02)});
+  ContactModel cmodel = scene.contactModel(DetectionPathChoice::Automatic);
+  cmodel.settings.margin_rule = MarginRule::Relative;
+  std::mt19937 rng(7);
+  VectorX q = scene.model.neutralConfiguration();
+  test::placeBody(scene.model, q, 0, Vector3(0, 0, 0), test::randomOrientation(rng, false));
+  test::placeBody(scene.model, q, 1, Vector3(1, 0, 0), test::randomOrientation(rng, false));
+  VectorX v(12);  // per body: linear velocity (parent frame), angular velocity (body axes)
+  v << 1.0, 2.0, 3.0, 40.0, -5.0, 6.0, 1.0, 2.0, 3.0, -7.0, 80.0, 9.0;
+  Data data(scene.model);
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_LT(ballClosingSpeed(scene.model, data, cmodel, 0.0), 1e-14);
+  v.segment<3>(6) << 1.0, 2.0, 5.0;  // 2 m/s apart along z: 1 m/s about the middle
+  forwardKinematics(scene.model, data, q, v);
+  EXPECT_NEAR(ballClosingSpeed(scene.model, data, cmodel, 0.0), 1.0, 1e-14);
+}
+
 // Pairs of two balls take the balls' margin, every other pair the other one.
 TEST(Detection, EachPairTakesItsOwnMargin) {
   const test::ShapeScene scene = test::shapeScene(
