@@ -439,7 +439,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.begin.push_back(static_cast<int>(p.dof.size()));
     p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
     p.diagonal.push_back(1);
-    ContactProblem::PackedBodies3d b;
+    // filled in place: a record is six cache lines, and a copy of it cost as much as the fill
+    p.row_body_form.push_back(static_cast<int>(p.bodies3d.size()));
+    ContactProblem::PackedBodies3d& b = p.bodies3d.emplace_back();
+    p.direct_body_forms = static_cast<int>(p.bodies3d.size());
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
     const Vector3& roll1 = contact.tangent1;
@@ -496,9 +499,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         inertia[k] = inverse[3 + k];
       }
     }
-    p.row_body_form.push_back(static_cast<int>(p.bodies3d.size()));
-    p.bodies3d.push_back(b);
-    p.direct_body_forms = static_cast<int>(p.bodies3d.size());
     // W and W_r as finishRow sums them over the entries
     double w[3][3] = {}, w_r[2][2] = {};
     ContactProblem::forEachBodyFormEntry(
