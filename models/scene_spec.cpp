@@ -4,6 +4,7 @@
 #include <map>
 #include <random>
 #include <sstream>
+#include <unordered_map>
 
 #include "contact/detection.hpp"
 #include "framework/error.hpp"
@@ -295,6 +296,11 @@ Scene buildScene(const SceneSpec& spec) {
   scene.q0 = model.neutralConfiguration();
   scene.v0 = VectorX::Zero(model.nv);
   int driven = 0;
+  // by name once: Model::bodyIndex searches the list, and 35 000 grains took a billion string
+  // comparisons
+  std::unordered_map<std::string, int> body_index;
+  for (std::size_t i = 0; i < model.bodies.size(); ++i)
+    body_index.emplace(model.bodies[i].name, static_cast<int>(i));
   for (const BodySpec& body : spec.bodies) {
     const int material = materialId(body.material);
     switch (body.kind) {
@@ -306,7 +312,8 @@ Scene buildScene(const SceneSpec& spec) {
                        material);
         break;
       case BodySpec::Kind::Dynamic: {
-        const int index = model.bodyIndex(body.name);
+        const auto found = body_index.find(body.name);
+        const int index = found != body_index.end() ? found->second : model.bodyIndex(body.name);
         cb.addGeometry(body.name, BodyRef::dynamic(index), Pose::identity(), body.shape, material);
         const Body& b = model.bodies[index];
         if (spec.dimension == 2) {
