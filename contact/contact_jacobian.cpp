@@ -5,6 +5,16 @@
 
 namespace sweep {
 
+void addDrivenVelocity(const DrivenBody& driven, const Contact& contact, const Vector3& point,
+                       const Vector3& roll1, const Vector3& roll2, double sign, double t,
+                       Vector3& known, Vector2& spin) {
+  const Vector6 twist = driven.twist(t);
+  const Vector3 velocity = driven.pointVelocity(point, t);
+  known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
+                          contact.tangent2.dot(velocity));
+  spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
+}
+
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
                              ContactData& cdata, double t, double max_gap,
                              const std::vector<char>* skip) {
@@ -73,12 +83,8 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
                                      }
                                    });
       } else if (body.kind == BodyRef::Kind::Driven) {
-        const DrivenBody& driven = model.driven_bodies[body.index];
-        const Vector6 twist = driven.twist(t);
-        const Vector3 velocity = driven.pointVelocity(point, t);
-        known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
-                                contact.tangent2.dot(velocity));
-        spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
+        addDrivenVelocity(model.driven_bodies[body.index], contact, point, roll1, roll2, sign, t,
+                          known, spin);
       }
     }
     if (one_tree)

@@ -47,6 +47,13 @@ struct ContactJacobian {
   }
 };
 
+// What a driven body on one side of a contact (sign -1: side a, +1: side b) adds to the
+// contact's relative velocity at v = 0, at time t: known (normal, tangent1, tangent2) and spin
+// (its angular velocity about roll1, roll2). `point` is the contact point on that side.
+void addDrivenVelocity(const DrivenBody& driven, const Contact& contact, const Vector3& point,
+                       const Vector3& roll1, const Vector3& roll2, double sign, double t,
+                       Vector3& known, Vector2& spin);
+
 // Needs the kinematics of `data` at the detection configuration; driven bodies move with
 // their velocity at `t`. Contacts with gap > max_gap get no entries and zero known
 // velocities: a solve that takes closed contacts only (the VEL law) does not need the

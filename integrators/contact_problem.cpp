@@ -453,12 +453,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
       const double sign = side == 0 ? -1.0 : 1.0;
       if (ref.kind == BodyRef::Kind::Driven) {
-        const DrivenBody& driven = model.driven_bodies[ref.index];
-        const Vector6 twist = driven.twist(t);
-        const Vector3 velocity = driven.pointVelocity(point, t);
-        known += sign * Vector3(contact.normal.dot(velocity), contact.tangent1.dot(velocity),
-                                contact.tangent2.dot(velocity));
-        spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
+        addDrivenVelocity(model.driven_bodies[ref.index], contact, point, roll1, roll2, sign, t,
+                          known, spin);
         continue;
       }
       if (ref.kind != BodyRef::Kind::Dynamic) continue;
