@@ -282,6 +282,30 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   };
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
+  // W_cc = H^T M^-1 H and W_r of a diagonal row (M^-1 H is H scaled), summed over its
+  // entries in order, stored or in body form alike. Plain arrays: Eigen's outer products went
+  // through the stack, and the stores stalled the loads of the next entry (the same products
+  // in the same order, so the same bits).
+  auto diagonalDelassus = [&](int pc, Matrix3& W, Matrix2& W_r) {
+    double w[3][3] = {}, w_r[2][2] = {};
+    p.forEachDiagonalEntry(pc, [&](int, const Vector3& h, const Vector2& h_r, double inverse_mass) {
+      for (int i = 0; i < 3; ++i) {
+        const double scaled = inverse_mass * h[i];
+        for (int j = 0; j < 3; ++j) w[i][j] += scaled * h[j];
+      }
+      if (p.rolling) {
+        for (int i = 0; i < 2; ++i) {
+          const double scaled = inverse_mass * h_r[i];
+          for (int j = 0; j < 2; ++j) w_r[i][j] += scaled * h_r[j];
+        }
+      }
+    });
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) W(i, j) = w[i][j];
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
+  };
+
   // the rest of a row once its W_cc and W_r are known: islands, inverse, velocities and bias
   // (ws.touched holds the components of the row)
   auto finishRowTail = [&](int pc, Matrix3 W, Matrix2 W_r, const Vector3& known, double gap,
@@ -348,31 +372,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     Matrix3 W = Matrix3::Zero();
     Matrix2 W_r = Matrix2::Zero();
     if (diagonal_row) {
-      // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass).
-      // W and W_r are summed in plain arrays: Eigen's outer products went through the stack,
-      // and the stores stalled the loads of the next entry (the same products in the same
-      // order, so the same bits).
-      double w[3][3] = {}, w_r[2][2] = {};
-      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-        const double inverse_mass = data.constant_inverse_diagonal[p.dof[k]];
-        p.h_inverse_mass.push_back(inverse_mass);
-        const Vector3& h = p.h[k];
-        for (int i = 0; i < 3; ++i) {
-          const double scaled = inverse_mass * h[i];
-          for (int j = 0; j < 3; ++j) w[i][j] += scaled * h[j];
-        }
-        if (p.rolling) {
-          const Vector2& h_r = p.rolling_h[k];
-          for (int i = 0; i < 2; ++i) {
-            const double scaled = inverse_mass * h_r[i];
-            for (int j = 0; j < 2; ++j) w_r[i][j] += scaled * h_r[j];
-          }
-        }
-      }
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) W(i, j) = w[i][j];
-      for (int i = 0; i < 2; ++i)
-        for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
+      // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass)
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
+        p.h_inverse_mass.push_back(data.constant_inverse_diagonal[p.dof[k]]);
+      diagonalDelassus(pc, W, W_r);
       p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
     } else {
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) p.h_inverse_mass.push_back(0.0);
@@ -495,27 +498,9 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         inertia[k] = inverse[3 + k];
       }
     }
-    // W and W_r as finishRow sums them over the entries
-    double w[3][3] = {}, w_r[2][2] = {};
-    ContactProblem::forEachBodyFormEntry(
-        b, [&](int, const Vector3& h, const Vector2& h_r, double inverse_mass) {
-          for (int i = 0; i < 3; ++i) {
-            const double scaled = inverse_mass * h[i];
-            for (int j = 0; j < 3; ++j) w[i][j] += scaled * h[j];
-          }
-          if (p.rolling) {
-            for (int i = 0; i < 2; ++i) {
-              const double scaled = inverse_mass * h_r[i];
-              for (int j = 0; j < 2; ++j) w_r[i][j] += scaled * h_r[j];
-            }
-          }
-        });
     Matrix3 W;
     Matrix2 W_r;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) W(i, j) = w[i][j];
-    for (int i = 0; i < 2; ++i)
-      for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
+    diagonalDelassus(pc, W, W_r);  // as for the same row in entry form
     finishRowTail(pc, W, W_r, known, contact.gap, contact.friction, contact.restitution, spin,
                   contact.rolling);
   };
