@@ -120,9 +120,15 @@ void ContactProblem::pack3d() {
   rows3d.clear();
   h3d.clear();
   minv3d.clear();
+  packed_slot.clear();
   bodies3d.resize(direct_body_forms);  // the assembly's own records stay
   if (dimension != 3) return;
   for (int c = 0; c < size(); ++c) {
+    if (sphereForm(c) >= 0) {  // the assembly's record is the packed row
+      packed_slot.push_back(-1 - sphereForm(c));
+      continue;
+    }
+    packed_slot.push_back(static_cast<int>(rows3d.size()));
     PackedRow3d row;
     row.W = delassus[c];
     row.W_inverse = delassus_inverse[c];
@@ -195,9 +201,21 @@ void ContactProblem::pack3d() {
 namespace {
 
 // The per-body part of rowInBodyForm, computed once: Data's constant inverses do not change.
-void findFreeParticles(const Model& model, const Data& data, ContactProblemWorkspace& ws) {
+// A sphere particle also has one inverse inertia about every axis and only spheres centred
+// on its origin (PackedSphere3d).
+void findFreeParticles(const Model& model, const Data& data, const ContactModel& cmodel,
+                       ContactProblemWorkspace& ws) {
   if (ws.free_particle.size() == model.bodies.size()) return;
   ws.free_particle.assign(model.bodies.size(), 0);
+  ws.sphere_particle.assign(model.bodies.size(), 0);
+  std::vector<char> only_centred_spheres(model.bodies.size(), 1);
+  std::vector<char> has_shape(model.bodies.size(), 0);
+  for (const Geometry& g : cmodel.geometries) {
+    if (g.body.kind != BodyRef::Kind::Dynamic) continue;
+    has_shape[g.body.index] = 1;
+    if (g.shape.type != ShapeType::Sphere || !g.placement.translation.isZero(0.0))
+      only_centred_spheres[g.body.index] = 0;
+  }
   for (std::size_t b = 0; b < model.bodies.size(); ++b) {
     const Body& body = model.bodies[b];
     if (body.parent >= 0 || body.joint.type != JointType::Floating) continue;
@@ -208,6 +226,8 @@ void findFreeParticles(const Model& model, const Data& data, ContactProblemWorks
     for (int i = 0; i < 6; ++i) particle = particle && inverse[i] > 0.0;
     for (int i = 1; i < 3; ++i) particle = particle && sameBits(inverse[i], inverse[0]);
     ws.free_particle[b] = particle ? 1 : 0;
+    const bool isotropic = sameBits(inverse[4], inverse[3]) && sameBits(inverse[5], inverse[3]);
+    ws.sphere_particle[b] = particle && isotropic && has_shape[b] && only_centred_spheres[b];
   }
 }
 
@@ -216,7 +236,7 @@ void findFreeParticles(const Model& model, const Data& data, ContactProblemWorks
 bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmodel,
                    const Contact& contact, ContactProblemWorkspace& workspace) {
   if (cmodel.dimension != 3) return false;
-  findFreeParticles(model, data, workspace);
+  findFreeParticles(model, data, cmodel, workspace);
   bool moving = false;
   for (const BodyRef& body : {contact.body_a, contact.body_b}) {
     if (body.kind != BodyRef::Kind::Dynamic) continue;
@@ -225,6 +245,16 @@ bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmo
   }
   return moving;
 }
+
+namespace {
+// Whether a row in body form may take the compact sphere form: every moving side a sphere
+// particle (call after rowInBodyForm returned true for the contact).
+bool sphereRowFits(const Contact& contact, const ContactProblemWorkspace& workspace) {
+  for (const BodyRef& body : {contact.body_a, contact.body_b})
+    if (body.kind == BodyRef::Kind::Dynamic && !workspace.sphere_particle[body.index]) return false;
+  return true;
+}
+}  // namespace
 
 double touchingGap(const ContactModel& cmodel) {
   return 1e-9 * cmodel.margin_floor;
@@ -255,6 +285,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.diagonal.clear();
   p.row_body_form.clear();
   p.bodies3d.clear();
+  p.row_sphere.clear();
+  p.spheres3d.clear();
   p.direct_body_forms = 0;
   p.delassus.clear();
   p.delassus_inverse.clear();
@@ -308,8 +340,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
 
   // the rest of a row once its W_cc and W_r are known: islands, inverse, velocities and bias
   // (ws.touched holds the components of the row)
+  // diagonal_W: W is diagonal by construction (PackedSphere3d), and so is its inverse
   auto finishRowTail = [&](int pc, Matrix3 W, Matrix2 W_r, const Vector3& known, double gap,
-                           double mu, double e, const Vector2& known_spin, double rolling_bound) {
+                           double mu, double e, const Vector2& known_spin, double rolling_bound,
+                           bool diagonal_W = false) {
     // islands: the components of one row are joined
     ws.row_component.push_back(ws.touched.front());
     for (int comp : ws.touched) {
@@ -329,6 +363,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     Matrix3 W_inverse = Matrix3::Zero();
     if (mu == 0.0)
       W_inverse(0, 0) = 1.0 / W(0, 0);
+    else if (diagonal_W)
+      W_inverse.diagonal() = W.diagonal().cwiseInverse();
     else if (p.dimension == 2)
       W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
     else
@@ -357,6 +393,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                        const Vector2& known_spin, double rolling_bound) {
     const int pc = static_cast<int>(p.begin.size()) - 1;
     p.row_body_form.push_back(-1);
+    p.row_sphere.push_back(-1);
     p.begin.push_back(static_cast<int>(p.dof.size()));
     // M^-1 H_c, component by component (a contact touches at most two)
     ws.touched.clear();
@@ -444,6 +481,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.diagonal.push_back(1);
     // filled in place: a record is six cache lines, and a copy of it cost as much as the fill
     p.row_body_form.push_back(static_cast<int>(p.bodies3d.size()));
+    p.row_sphere.push_back(-1);
     ContactProblem::PackedBodies3d& b = p.bodies3d.emplace_back();
     p.direct_body_forms = static_cast<int>(p.bodies3d.size());
     Vector3 known = Vector3::Zero();
@@ -505,8 +543,81 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                   contact.rolling);
   };
 
+  // A row over spheres in compact form (ContactProblem::PackedSphere3d): the frame, each
+  // side's signed lever along the normal and its axes R^T t1, R^T t2, written in place.
+  auto sphereRow = [&](const Contact& contact) {
+    const int pc = static_cast<int>(p.begin.size()) - 1;
+    p.begin.push_back(static_cast<int>(p.dof.size()));
+    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
+    p.diagonal.push_back(1);
+    p.row_body_form.push_back(-1);
+    p.row_sphere.push_back(static_cast<int>(p.spheres3d.size()));
+    ContactProblem::PackedSphere3d& s = p.spheres3d.emplace_back();
+    Vector3 known = Vector3::Zero();
+    Vector2 spin = Vector2::Zero();
+    ws.touched.clear();
+    for (int side = 0; side < 2; ++side) {
+      const BodyRef& ref = side == 0 ? contact.body_a : contact.body_b;
+      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
+      const double sign = side == 0 ? -1.0 : 1.0;
+      if (ref.kind == BodyRef::Kind::Driven) {
+        addDrivenVelocity(model.driven_bodies[ref.index], contact, point, contact.tangent1,
+                          contact.tangent2, sign, t, known, spin);
+        continue;
+      }
+      if (ref.kind != BodyRef::Kind::Dynamic) continue;
+      const Body& body = model.bodies[ref.index];
+      const Pose& pose = data.world_pose[ref.index];
+      const bool first = ws.touched.empty();
+      ws.touched.push_back(body.component);
+      const double* inverse = data.constant_inverse_diagonal.data() + body.v_index;
+      const double lever = (point - pose.translation).dot(contact.normal);
+      const Vector3 axis1 = sign * (pose.rotation.transpose() * contact.tangent1);
+      const Vector3 axis2 = sign * (pose.rotation.transpose() * contact.tangent2);
+      double(&axes)[2][3] = first ? s.axes_a : s.axes_b;
+      for (int k = 0; k < 3; ++k) {
+        axes[0][k] = axis1[k];
+        axes[1][k] = axis2[k];
+      }
+      if (first) {
+        for (int k = 0; k < 3; ++k) {
+          s.normal[k] = sign * contact.normal[k];
+          s.tangent[0][k] = sign * contact.tangent1[k];
+          s.tangent[1][k] = sign * contact.tangent2[k];
+        }
+        s.dof_a = body.v_index;
+        s.lever_a = lever;
+        s.inverse_mass_a = inverse[0];
+        s.inverse_inertia_a = inverse[3];
+      } else {
+        s.dof_b = body.v_index;
+        s.lever_b = lever;
+        s.inverse_mass_b = inverse[0];
+        s.inverse_inertia_b = inverse[3];
+      }
+    }
+    // the record's velocities before the tail, which reads the start velocity through it
+    for (int k = 0; k < 3; ++k) s.known[k] = known[k];
+    s.rolling_known[0] = spin.x();
+    s.rolling_known[1] = spin.y();
+    const Matrix3 W = Vector3(s.W_N(), s.W_T(), s.W_T()).asDiagonal();
+    Matrix2 W_r = Matrix2::Zero();
+    if (p.rolling) W_r.diagonal().setConstant(s.inverse_inertia_a + s.inverse_inertia_b);
+    finishRowTail(pc, W, W_r, known, contact.gap, contact.friction, contact.restitution, spin,
+                  contact.rolling, true);
+    s.bias = p.normal_bias.back();
+    s.mu = p.friction.back();
+    s.normal_inverse = p.delassus_inverse.back()(0, 0);
+    s.tangent_inverse = p.delassus_inverse.back()(1, 1);
+    if (p.rolling && p.rolling_bound.back() > 0.0) {
+      s.rolling_bound = p.rolling_bound.back();
+      s.rolling_inverse = 1.0 / W_r(0, 0);
+    }
+  };
+
   const double touching = touchingGap(cmodel);
   const bool body_form = p.pack_body_form && p.dimension == 3;
+  const bool compact_spheres = body_form && p.compact_spheres;
   for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
     const Contact& contact = cdata.contacts[c];
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
@@ -514,7 +625,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     if (deferred != nullptr && (*deferred)[c]) continue;
     p.contact.push_back(c);
     if (body_form && rowInBodyForm(model, data, cmodel, contact, ws)) {
-      bodyFormRow(contact);
+      if (compact_spheres && sphereRowFits(contact, ws))
+        sphereRow(contact);
+      else
+        bodyFormRow(contact);
       continue;
     }
     for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {

@@ -137,9 +137,118 @@ struct ContactProblem {
     double inverse_mass_a = 0.0, inverse_mass_b = 0.0;
     double inverse_inertia_a[3] = {}, inverse_inertia_b[3] = {};
   };
+  // A row between two spheres, or a sphere and a body that does not move with the solve
+  // (the world, a driven body), opted in by compact_spheres. Each moving side is a free
+  // particle with one inverse inertia about every axis and only sphere shapes centred on its
+  // origin, so the lever from its centre to the contact point is l n (l signed, |l| the
+  // radius) and, with a = s R^T t1 and b = s R^T t2 (s the side's sign, R its rotation):
+  //   U_N  = known_N + n.(v_a - v_b)
+  //   U_T1 = known_1 + t1.(v_a - v_b) + l_a b_a.w_a + l_b b_b.w_b
+  //   U_T2 = known_2 + t2.(v_a - v_b) - l_a a_a.w_a - l_b a_b.w_b
+  //   U_R  = rolling_known + (a_a.w_a + a_b.w_b, b_a.w_a + b_b.w_b)
+  // (n, t1, t2 signed for side a). W is then diagonal, diag(W_N, W_T, W_T) with
+  // W_N = m_a^-1 + m_b^-1 and W_T = W_N + l_a^2 i_a^-1 + l_b^2 i_b^-1, and W_r is
+  // (i_a^-1 + i_b^-1) I. The body-form row of the same contact stores all twelve coefficients
+  // of each of its five rows and its 3x3 blocks: 704 bytes against these 320, which on the
+  // wide powder bed stream from memory every sweep (docs/powder_bed.md). Its bits differ
+  // from the body form's by round-off: the normal's zero lever terms are not summed, and the
+  // off-diagonal terms of W are zero rather than a few ulps.
+  struct alignas(64) PackedSphere3d {
+    // first cache line: all an open row that stays open reads
+    double known[3] = {};
+    double bias = 0.0;
+    double normal[3] = {};
+    int dof_a = 0, dof_b = -1;  // first velocity of each side's six; -1: one moving side
+    double tangent[2][3] = {};
+    double mu = 0.0;
+    double normal_inverse = 0.0;  // 1 / W_N
+    double axes_a[2][3] = {};     // a_a, b_a
+    double lever_a = 0.0, lever_b = 0.0;
+    double axes_b[2][3] = {};  // a_b, b_b
+    double inverse_mass_a = 0.0, inverse_mass_b = 0.0;
+    double inverse_inertia_a = 0.0, inverse_inertia_b = 0.0;
+    double tangent_inverse = 0.0;  // 1 / W_T
+    double rolling_known[2] = {};
+    double rolling_bound = 0.0;    // 0: no rolling row
+    double rolling_inverse = 0.0;  // 1 / W_r(0, 0)
+    double W_N() const { return inverse_mass_a + inverse_mass_b; }
+    double W_T() const {
+      return W_N() + lever_a * lever_a * inverse_inertia_a + lever_b * lever_b * inverse_inertia_b;
+    }
+    // the rolling velocity a unit tangential impulse makes: U_R += kappa (-dP_T2, dP_T1)
+    double rollingCoupling() const {
+      return inverse_inertia_a * lever_a + inverse_inertia_b * lever_b;
+    }
+    // The reads below are the sweeps' (inlined) and every other reader's: the generic
+    // accessors of ContactProblem give the same bits.
+    // v_a - v_b, or v_a alone
+    [[gnu::always_inline]] void relativeLinear(const VectorX& v, double (&linear)[3]) const {
+      const double* va = v.data() + dof_a;
+      for (int i = 0; i < 3; ++i) linear[i] = va[i];
+      if (dof_b < 0) return;
+      const double* vb = v.data() + dof_b;
+      for (int i = 0; i < 3; ++i) linear[i] -= vb[i];
+    }
+    [[gnu::always_inline]] double normalVelocity(const VectorX& v) const {
+      double linear[3];
+      relativeLinear(v, linear);
+      return known[0] + normal[0] * linear[0] + normal[1] * linear[1] + normal[2] * linear[2];
+    }
+    // (U_c, U_r)
+    [[gnu::always_inline]] void velocity(const VectorX& v, Vector3& u, Vector2& u_rolling) const {
+      double linear[3];
+      relativeLinear(v, linear);
+      // (a.w, b.w) of one side, zero for a side that does not move
+      auto turn = [&](int dof, const double(&axes)[2][3], double(&out)[2])
+          __attribute__((always_inline)) {
+        out[0] = out[1] = 0.0;
+        if (dof < 0) return;
+        const double* w = v.data() + dof + 3;
+        for (int j = 0; j < 2; ++j)
+          out[j] = axes[j][0] * w[0] + axes[j][1] * w[1] + axes[j][2] * w[2];
+      };
+      double turn_a[2], turn_b[2];
+      turn(dof_a, axes_a, turn_a);
+      turn(dof_b, axes_b, turn_b);
+      const double* frame[3] = {normal, tangent[0], tangent[1]};
+      double along[3];
+      for (int r = 0; r < 3; ++r)
+        along[r] = frame[r][0] * linear[0] + frame[r][1] * linear[1] + frame[r][2] * linear[2];
+      u.x() = known[0] + along[0];
+      u.y() = known[1] + along[1] + lever_a * turn_a[1] + lever_b * turn_b[1];
+      u.z() = known[2] + along[2] - lever_a * turn_a[0] - lever_b * turn_b[0];
+      u_rolling.x() = rolling_known[0] + turn_a[0] + turn_b[0];
+      u_rolling.y() = rolling_known[1] + turn_a[1] + turn_b[1];
+    }
+    // v += M^-1 (H_c dP + H_r dR)
+    [[gnu::always_inline]] void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const {
+      double linear[3];
+      for (int i = 0; i < 3; ++i)
+        linear[i] = normal[i] * dP.x() + tangent[0][i] * dP.y() + tangent[1][i] * dP.z();
+      auto side = [&](int dof, double inverse_mass, double lever, const double(&axes)[2][3],
+                      double inverse_inertia, double sign) __attribute__((always_inline)) {
+        double* vs = v.data() + dof;
+        const double scaled = sign * inverse_mass;
+        for (int i = 0; i < 3; ++i) vs[i] += scaled * linear[i];
+        const double along1 = inverse_inertia * (dR.x() - lever * dP.z());
+        const double along2 = inverse_inertia * (dR.y() + lever * dP.y());
+        for (int i = 0; i < 3; ++i) vs[3 + i] += axes[0][i] * along1 + axes[1][i] * along2;
+      };
+      side(dof_a, inverse_mass_a, lever_a, axes_a, inverse_inertia_a, 1.0);
+      if (dof_b >= 0) side(dof_b, inverse_mass_b, lever_b, axes_b, inverse_inertia_b, -1.0);
+    }
+  };
   std::vector<PackedRow3d> rows3d;
   std::vector<PackedEntry3d> h3d, minv3d;
   std::vector<PackedBodies3d> bodies3d;
+  // set before the assembly: rows over spheres in the compact form above (3D; with
+  // pack_body_form). Per row, row_sphere[c] is its record in spheres3d or -1; pack3d then
+  // gives every row a slot: packed_slot[c] >= 0 its PackedRow3d in rows3d, < 0 its record
+  // spheres3d[-1 - slot].
+  bool compact_spheres = false;
+  std::vector<PackedSphere3d> spheres3d;
+  std::vector<int> row_sphere;
+  std::vector<int> packed_slot;
   // the assembly's and pack3d's choice; false: every row in entry form (tests compare). Set it
   // before the assembly: a row the assembly wrote in body form has no entries to fall back on.
   bool pack_body_form = true;
@@ -156,6 +265,15 @@ struct ContactProblem {
   int bodyForm(int c) const {
     return c < static_cast<int>(row_body_form.size()) ? row_body_form[c] : -1;
   }
+  int sphereForm(int c) const {
+    return c < static_cast<int>(row_sphere.size()) ? row_sphere[c] : -1;
+  }
+  // a row the assembly wrote from its contact alone, without H entries
+  bool hasNoEntries(int c) const { return bodyForm(c) >= 0 || sphereForm(c) >= 0; }
+  // whether the packed rows (pack3d) cover every row
+  bool packed3dComplete() const {
+    return dimension == 3 && static_cast<int>(packed_slot.size()) == size();
+  }
   // visit(dof, h, h_rolling, inverse_mass) for each H entry of row c, in order: the stored
   // entries of a diagonal row, or those a row in body form stands for
   template <class Visit>
@@ -163,6 +281,11 @@ struct ContactProblem {
     const int form = bodyForm(c);
     if (form >= 0) {
       forEachBodyFormEntry(bodies3d[form], visit);
+      return;
+    }
+    const int sphere = sphereForm(c);
+    if (sphere >= 0) {
+      forEachSphereEntry(spheres3d[sphere], visit);
       return;
     }
     for (int k = begin[c]; k < begin[c + 1]; ++k)
@@ -186,6 +309,23 @@ struct ContactProblem {
       block(b.dof_b, -1.0, b.inverse_mass_b, b.rotation_normal_b, b.rotation_b,
             b.inverse_inertia_b);
   }
+  // the entries a compact sphere row stands for (see PackedSphere3d)
+  template <class Visit>
+  static void forEachSphereEntry(const PackedSphere3d& s, Visit&& visit) {
+    auto side = [&](int first, double sign, double inverse_mass, double lever,
+                    const double(&axes)[2][3], double inverse_inertia) {
+      for (int i = 0; i < 3; ++i)
+        visit(first + i,
+              Vector3(sign * s.normal[i], sign * s.tangent[0][i], sign * s.tangent[1][i]),
+              Vector2::Zero().eval(), inverse_mass);
+      for (int i = 0; i < 3; ++i)
+        visit(first + 3 + i, Vector3(0.0, lever * axes[1][i], -lever * axes[0][i]),
+              Vector2(axes[0][i], axes[1][i]), inverse_inertia);
+    };
+    side(s.dof_a, 1.0, s.inverse_mass_a, s.lever_a, s.axes_a, s.inverse_inertia_a);
+    if (s.dof_b >= 0)
+      side(s.dof_b, -1.0, s.inverse_mass_b, s.lever_b, s.axes_b, s.inverse_inertia_b);
+  }
   // visit(dof) for each velocity row c's impulse moves
   template <class Visit>
   void forEachMovedDof(int c, Visit&& visit) const {
@@ -196,7 +336,12 @@ struct ContactProblem {
 
   Vector3 localVelocity(int c, const VectorX& v) const {
     Vector3 u = known[c];
-    if (bodyForm(c) >= 0) {
+    if (sphereForm(c) >= 0) {
+      Vector2 u_rolling;
+      spheres3d[sphereForm(c)].velocity(v, u, u_rolling);
+      return u;
+    }
+    if (hasNoEntries(c)) {
       forEachDiagonalEntry(
           c, [&](int k, const Vector3& h_k, const Vector2&, double) { u += h_k * v[k]; });
       return u;
@@ -207,6 +352,10 @@ struct ContactProblem {
   bool isDiagonal(int c) const { return c < static_cast<int>(diagonal.size()) && diagonal[c]; }
   // v += M^-1 H_c dP
   void applyImpulse(int c, const Vector3& dP, VectorX& v) const {
+    if (sphereForm(c) >= 0) {
+      spheres3d[sphereForm(c)].apply(dP, Vector2::Zero(), v);
+      return;
+    }
     if (isDiagonal(c)) {
       forEachDiagonalEntry(c, [&](int k, const Vector3& h_k, const Vector2&, double inverse_mass) {
         v[k] += inverse_mass * h_k.dot(dP);
@@ -217,7 +366,12 @@ struct ContactProblem {
   }
   Vector2 rollingVelocity(int c, const VectorX& v) const {
     Vector2 u = rolling_known[c];
-    if (bodyForm(c) >= 0) {
+    if (sphereForm(c) >= 0) {
+      Vector3 u_contact;
+      spheres3d[sphereForm(c)].velocity(v, u_contact, u);
+      return u;
+    }
+    if (hasNoEntries(c)) {
       forEachDiagonalEntry(
           c, [&](int k, const Vector3&, const Vector2& h_r, double) { u += h_r * v[k]; });
       return u;
@@ -227,6 +381,10 @@ struct ContactProblem {
   }
   // v += M^-1 H_r,c dR
   void applyRolling(int c, const Vector2& dR, VectorX& v) const {
+    if (sphereForm(c) >= 0) {
+      spheres3d[sphereForm(c)].apply(Vector3::Zero(), dR, v);
+      return;
+    }
     if (isDiagonal(c)) {
       forEachDiagonalEntry(c, [&](int k, const Vector3&, const Vector2& h_r, double inverse_mass) {
         v[k] += inverse_mass * h_r.dot(dR);
@@ -253,6 +411,7 @@ struct ContactProblemWorkspace {
   // per body: a free particle, whose contacts the assembly writes straight in body form
   // (see rowInBodyForm); filled on first use from the constant inverse masses of the Data
   std::vector<char> free_particle;
+  std::vector<char> sphere_particle;  // per body: a free particle fit for PackedSphere3d rows
 };
 
 // Whether assembleContactProblem writes the row of `contact` straight in body form from its

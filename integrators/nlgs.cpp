@@ -241,7 +241,7 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
                        int count) {
   double f2 = 0.0, scale2 = 0.0;
   // packed 3D rows: one pass for the contact's and its rolling row's velocities, the same sums
-  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size();
+  const bool packed3d = p.packed3dComplete();
   const PackedRows3d rows(p);
   for (int k = 0; k < count; ++k) {
     const int c = ws.order[k];
@@ -249,7 +249,7 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
     Vector3 u;
     Vector2 u_rolling;
     if (packed3d) {
-      packedVelocity3d(rows.rows[c], rows, v, u, u_rolling);
+      packedRowVelocity3d(rows, c, v, u, u_rolling);
     } else {
       u = p.localVelocity(c, v);
       if (rolling_row) u_rolling = p.rollingVelocity(c, v);
@@ -323,11 +323,61 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   size2 += P_new.squaredNorm();
 }
 
-// One 3D update on the packed rows, the rolling rows (when R is given) in the same pass: the
+// What coulombUpdate3d reads of a packed row, for each packed form: a PackedRow3d (with its
+// entries or its body form) and a compact sphere row, whose W and W_r are diagonal.
+struct GeneralRow3d {
+  const ContactProblem::PackedRow3d& r;
+  const PackedRows3d& s;
+  double normalVelocity(const VectorX& v) const { return packedNormalVelocity3d(r, s, v); }
+  void velocity(const VectorX& v, Vector3& u, Vector2& u_rolling) const {
+    packedVelocity3d(r, s, v, u, u_rolling);
+  }
+  double bias() const { return r.bias; }
+  double mu() const { return r.mu; }
+  Vector3 freeVelocity(const Vector3& u, const Vector3& P) const { return u - r.W * P; }
+  double normalInverse() const { return r.W_inverse(0, 0); }
+  const Matrix3& W() const { return r.W; }
+  const Matrix3& W_inverse() const { return r.W_inverse; }
+  double rollingBound() const { return r.rolling_bound; }
+  Vector2 rollingChange(const Vector3& dP) const { return r.rolling_coupling * dP; }
+  double rollingIsotropicInverse() const { return r.rolling_isotropic_inverse; }
+  const Matrix2& rollingW() const { return r.rolling_W; }
+  void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const {
+    applyPacked3d(r, s, dP, dR, v);
+  }
+};
+struct SphereRow3d {
+  const ContactProblem::PackedSphere3d& r;
+  double normalVelocity(const VectorX& v) const { return r.normalVelocity(v); }
+  void velocity(const VectorX& v, Vector3& u, Vector2& u_rolling) const {
+    r.velocity(v, u, u_rolling);
+  }
+  double bias() const { return r.bias; }
+  double mu() const { return r.mu; }
+  Vector3 freeVelocity(const Vector3& u, const Vector3& P) const {
+    const double W_T = r.W_T();
+    return Vector3(u.x() - r.W_N() * P.x(), u.y() - W_T * P.y(), u.z() - W_T * P.z());
+  }
+  double normalInverse() const { return r.normal_inverse; }
+  Matrix3 W() const { return Vector3(r.W_N(), r.W_T(), r.W_T()).asDiagonal(); }
+  Matrix3 W_inverse() const {
+    return Vector3(r.normal_inverse, r.tangent_inverse, r.tangent_inverse).asDiagonal();
+  }
+  double rollingBound() const { return r.rolling_bound; }
+  Vector2 rollingChange(const Vector3& dP) const {
+    const double kappa = r.rollingCoupling();
+    return Vector2(-kappa * dP.z(), kappa * dP.y());
+  }
+  double rollingIsotropicInverse() const { return r.rolling_inverse; }
+  Matrix2 rollingW() const { return Matrix2::Identity() / r.rolling_inverse; }
+  void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const { r.apply(dP, dR, v); }
+};
+
+// One 3D update on a packed row, the rolling rows (when R is given) in the same pass: the
 // same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
 // the velocity the contact left), equal to it up to round-off.
-[[gnu::always_inline]] inline void coulombUpdate3d(const ContactProblem::PackedRow3d& r,
-                                                   const PackedRows3d& s, double omega,
+template <class Row>
+[[gnu::always_inline]] inline void coulombUpdate3d(const Row& r, double omega,
                                                    LocalSolver3d local_solver, Vector3& P,
                                                    Vector2* R, VectorX& v, double& change2,
                                                    double& size2, int& failures) {
@@ -335,22 +385,22 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   // U_N + bias >= 0 makes every local solver return P = 0 (then R's disc has radius 0). On a
   // screened powder pass 43 % of the updates are such rows; their normal velocity alone costs
   // a fifth of the full one. Its sum runs in the full loop's order, so nothing changes by a bit.
-  if (P.isZero(0.0) && (R == nullptr || R->isZero(0.0) || r.rolling_bound == 0.0)) {
-    if (packedNormalVelocity3d(r, s, v) + r.bias >= 0.0) return;
+  if (P.isZero(0.0) && (R == nullptr || R->isZero(0.0) || r.rollingBound() == 0.0)) {
+    if (r.normalVelocity(v) + r.bias() >= 0.0) return;
   }
   Vector3 u;
   Vector2 u_rolling;
-  packedVelocity3d(r, s, v, u, u_rolling);
-  Vector3 q = u - r.W * P;
-  q.x() += r.bias;
+  r.velocity(v, u, u_rolling);
+  Vector3 q = r.freeVelocity(u, P);
+  q.x() += r.bias();
   Vector3 P_new = Vector3::Zero();
   bool ok = true;
-  if (r.mu == 0.0)
-    P_new.x() = std::max(-q.x() * r.W_inverse(0, 0), 0.0);
+  if (r.mu() == 0.0)
+    P_new.x() = std::max(-q.x() * r.normalInverse(), 0.0);
   else if (local_solver == LocalSolver3d::Enumeration)
-    ok = solveCoulomb3d(r.W, r.W_inverse, q, r.mu, P_new);
+    ok = solveCoulomb3d(r.W(), r.W_inverse(), q, r.mu(), P_new);
   else
-    ok = solveCoulomb3dNewton(r.W, r.W_inverse, q, r.mu, P, P_new);
+    ok = solveCoulomb3dNewton(r.W(), r.W_inverse(), q, r.mu(), P, P_new);
   failures += ok ? 0 : 1;
   P_new = relaxedImpulse(P_new, P, omega);
   const Vector3 dP = P_new - P;
@@ -358,24 +408,24 @@ inline void coulombUpdate2d(const ContactProblem::PackedRow2d& r,
   change2 += dP.squaredNorm();
   size2 += P_new.squaredNorm();
   Vector2 dR = Vector2::Zero();
-  if (R != nullptr && r.rolling_bound > 0.0) {
-    u_rolling += r.rolling_coupling * dP;
-    const double radius = r.rolling_bound * std::max(P_new.x(), 0.0);
+  if (R != nullptr && r.rollingBound() > 0.0) {
+    u_rolling += r.rollingChange(dP);
+    const double radius = r.rollingBound() * std::max(P_new.x(), 0.0);
     Vector2 target;
-    if (r.rolling_isotropic_inverse > 0.0) {
-      target = *R - u_rolling * r.rolling_isotropic_inverse;
+    if (r.rollingIsotropicInverse() > 0.0) {
+      target = *R - u_rolling * r.rollingIsotropicInverse();
       const double norm2 = target.squaredNorm();
       if (norm2 > radius * radius) target *= radius / std::sqrt(norm2);
     } else {
-      target = minimizeOnDisc(r.rolling_W, *R, u_rolling, radius);
+      target = minimizeOnDisc(r.rollingW(), *R, u_rolling, radius);
     }
     dR = relaxedChange(target, *R, omega);
     *R += dR;
-    const double lever2 = r.rolling_bound * r.rolling_bound;
+    const double lever2 = r.rollingBound() * r.rollingBound();
     change2 += dR.squaredNorm() / lever2;
     size2 += R->squaredNorm() / lever2;
   }
-  applyPacked3d(r, s, dP, dR, v);
+  r.apply(dP, dR, v);
 }
 
 constexpr double kNncgRestart = 1.5;
@@ -422,6 +472,16 @@ class NncgMomentum {
       };
       // the dofs a row's impulse moves: its M^-1 H entries, or its H entries if diagonal
       p.forEachMovedDof(c, add);
+    }
+    // in index order, so that the momentum's pass streams through v instead of gathering it
+    // in the rows' order (on the wide powder bed, 40 % of that pass waited on the gather)
+    const int nv = static_cast<int>(ws.dof_stamp.size());
+    if (8L * dofs_ >= nv) {
+      int j = 0;
+      for (int dof = 0; dof < nv; ++dof)
+        if (ws.dof_stamp[dof] == ws.stamp) ws.island_dofs[j++] = dof;
+    } else {
+      std::sort(ws.island_dofs.begin(), ws.island_dofs.begin() + dofs_);
     }
     int slot = 0;
     for (int k = 0; k < n; ++k) {
@@ -488,8 +548,8 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
   if (settings.acceleration == NlgsAcceleration::Nncg)
     momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n);
   const bool packed = p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
-  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
-                        (R == nullptr || static_cast<int>(R->size()) == p.size());
+  const bool packed3d =
+      p.packed3dComplete() && (R == nullptr || static_cast<int>(R->size()) == p.size());
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
@@ -505,8 +565,14 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       const PackedRows3d rows(p);
       for (int k = 0; k < n; ++k) {
         const int c = ws.order[k];
-        coulombUpdate3d(rows.rows[c], rows, omega, settings.local_solver_3d, P[c],
-                        R != nullptr ? &(*R)[c] : nullptr, v, change2, size2, stats.local_failures);
+        const int slot = rows.slot[c];
+        Vector2* Rc = R != nullptr ? &(*R)[c] : nullptr;
+        if (slot < 0)
+          coulombUpdate3d(SphereRow3d{rows.spheres[-1 - slot]}, omega, settings.local_solver_3d,
+                          P[c], Rc, v, change2, size2, stats.local_failures);
+        else
+          coulombUpdate3d(GeneralRow3d{rows.rows[slot], rows}, omega, settings.local_solver_3d,
+                          P[c], Rc, v, change2, size2, stats.local_failures);
       }
     }
     for (int k = 0; k < (packed || packed3d ? 0 : n); ++k) {
@@ -864,7 +930,8 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // 3D: one pass reads the contact's and its rolling row's velocities and one writes v, where
   // the generic rows below take four. The rolling row is updated first, as there, and its
   // effect on the contact's velocity is H_c^T M^-1 H_r dR = rolling_coupling^T dR.
-  const bool packed3d = p.dimension == 3 && static_cast<int>(p.rows3d.size()) == p.size() &&
+  // (compact sphere rows take the generic path here: scheme B reads their W's blocks)
+  const bool packed3d = p.packed3dComplete() && p.spheres3d.empty() &&
                         options.threshold == FrictionThreshold::Physical &&
                         (R == nullptr || static_cast<int>(R->size()) == p.size());
   auto packedSweep3d = [&](double& change2, double& size2) {

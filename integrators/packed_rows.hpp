@@ -12,8 +12,15 @@ struct PackedRows3d {
   const ContactProblem::PackedEntry3d* h;
   const ContactProblem::PackedEntry3d* minv;
   const ContactProblem::PackedBodies3d* bodies;
+  const ContactProblem::PackedSphere3d* spheres;
+  const int* slot;  // per row: its PackedRow3d (>= 0) or sphere record (-1 - index)
   explicit PackedRows3d(const ContactProblem& p)
-      : rows(p.rows3d.data()), h(p.h3d.data()), minv(p.minv3d.data()), bodies(p.bodies3d.data()) {}
+      : rows(p.rows3d.data()),
+        h(p.h3d.data()),
+        minv(p.minv3d.data()),
+        bodies(p.bodies3d.data()),
+        spheres(p.spheres3d.data()),
+        slot(p.packed_slot.data()) {}
 };
 
 // The three functions below read a row in body form in its entries' order (block a's linear
@@ -131,6 +138,17 @@ struct PackedRows3d {
     v[e.dof] += e.normal * dP.x() + e.tangent1 * dP.y() + e.tangent2 * dP.z() +
                 e.rolling1 * dR.x() + e.rolling2 * dR.y();
   }
+}
+
+// (U_c, U_r) of row c, whichever packed form it has
+[[gnu::always_inline]] inline void packedRowVelocity3d(const PackedRows3d& s, int c,
+                                                       const VectorX& v, Vector3& u,
+                                                       Vector2& u_rolling) {
+  const int slot = s.slot[c];
+  if (slot < 0)
+    s.spheres[-1 - slot].velocity(v, u, u_rolling);
+  else
+    packedVelocity3d(s.rows[slot], s, v, u, u_rolling);
 }
 
 }  // namespace sweep

@@ -64,6 +64,7 @@ TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
       v_free_(v_),
       tau_(VectorX::Zero(model.nv)) {
   settings_.validate();
+  problem_.compact_spheres = settings_.compact_sphere_rows;
 }
 
 void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
@@ -568,11 +569,11 @@ void TimeStepper::update() {
   stats_.work_normal = stats_.work_tangent = 0.0;
   // packed 3D rows (scheme A's powder rows): one pass for U and U_r, the generic reads' sums
   // to the bit (rows without a rolling row carry R = 0)
-  const bool packed = problem_.dimension == 3 && static_cast<int>(problem_.rows3d.size()) == n;
+  const bool packed = problem_.packed3dComplete();
   const PackedRows3d rows(problem_);
   auto velocities = [&](int c, const VectorX& v, Vector3& u, Vector2& u_rolling) {
     if (packed) {
-      packedVelocity3d(rows.rows[c], rows, v, u, u_rolling);
+      packedRowVelocity3d(rows, c, v, u, u_rolling);
       return;
     }
     u = problem_.localVelocity(c, v);

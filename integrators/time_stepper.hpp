@@ -56,6 +56,10 @@ struct SchemeSettings {
   bool screening = false;
   int screening_rounds = 8;
   double screening_gap = -1.0;
+  // 3D: contacts of free spheres as compact rows (ContactProblem::PackedSphere3d), 320 bytes
+  // against 704, equal to the default rows up to round-off. Scheme A's sweeps read them
+  // directly; scheme B's friction stage reads them through the generic path.
+  bool compact_sphere_rows = false;
 
   void validate() const;
 };

@@ -681,8 +681,8 @@ class SceneParser {
 
   void parseScheme(const YamlField& f) {
     f.allowOnly({"name", "normal_law", "tangents", "threshold", "open_contacts", "coulomb",
-                 "normal_stage", "friction_stage", "screening", "screening_rounds",
-                 "screening_gap"});
+                 "normal_stage", "friction_stage", "screening", "screening_rounds", "screening_gap",
+                 "compact_sphere_rows"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -727,6 +727,7 @@ class SceneParser {
     if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
     s.screening_rounds = static_cast<int>(rounds);
     if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
+    s.compact_sphere_rows = f.boolean("compact_sphere_rows", s.compact_sphere_rows);
     if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
     if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
     if (f.has("friction_stage"))
@@ -1057,6 +1058,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "screening" << YAML::Value << s.screening;
   out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
   if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
+  out << YAML::Key << "compact_sphere_rows" << YAML::Value << s.compact_sphere_rows;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
       << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;

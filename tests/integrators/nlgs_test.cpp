@@ -5,9 +5,11 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include "framework/dynamics.hpp"
 #include "framework/kinematics.hpp"
+#include "integrators/packed_rows.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
 #include "models/powder_bed.hpp"
@@ -505,6 +507,7 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   ASSERT_EQ(diagonal_rows, packed.size());
   ContactProblem generic = packed;
   generic.rows3d.clear();
+  generic.packed_slot.clear();
 
   NlgsSettings solver;
   solver.max_iterations = 200;  // the paths are compared, not the converged answers
@@ -609,6 +612,143 @@ TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
   }
 }
 
+// Rows over free spheres in compact form (ContactProblem::PackedSphere3d: the frame, a signed
+// lever and two body axes per side) stand for the same H as the body form, so everything the
+// solvers read agrees with it to round-off: W and W_r (now exactly diagonal), the start
+// velocity and bias, the velocities of any v and the velocity changes of any impulse, through
+// both the sweeps' reads and the generic ones. The spheres of the settled heap have turned,
+// so the body axes are not the world's.
+TEST(PackedRows3d, CompactSphereRowsStandForTheSameRows) {
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
+  const Scene& scene = heap.scene;
+  const ContactProblem& bodies = heap.step.problem;
+  const ContactProblem compact =
+      test::problemAt(scene, heap.q, heap.v, heap.h, NormalLaw::Iqs, true, true).problem;
+  ASSERT_EQ(compact.size(), bodies.size());
+  ASSERT_EQ(static_cast<int>(compact.spheres3d.size()), compact.size());
+  ASSERT_TRUE(compact.rows3d.empty());
+  ASSERT_TRUE(compact.packed3dComplete());
+  int two_sided = 0;
+  for (const auto& s : compact.spheres3d) two_sided += s.dof_b >= 0 ? 1 : 0;
+  EXPECT_GT(two_sided, compact.size() / 2);
+  EXPECT_LT(two_sided, compact.size());  // spheres on the plate too
+  double turned = 0.0;                   // how far the body axes are from the world's
+  for (const auto& s : compact.spheres3d)
+    for (int k = 0; k < 3; ++k)
+      turned = std::max(turned, std::abs(std::abs(s.axes_a[0][k]) - std::abs(s.tangent[0][k])));
+  EXPECT_GT(turned, 1e-3);
+
+  const double eps = 1e-12;
+  for (int c = 0; c < compact.size(); ++c) {
+    const Matrix3& W = bodies.delassus[c];
+    const double scale = W.cwiseAbs().maxCoeff();
+    ASSERT_LT((compact.delassus[c] - W).cwiseAbs().maxCoeff(), eps * scale) << c;
+    ASSERT_EQ(compact.delassus[c](0, 1), 0.0);
+    ASSERT_EQ(compact.delassus[c](1, 2), 0.0);
+    const Matrix3& W_inverse = bodies.delassus_inverse[c];
+    ASSERT_LT((compact.delassus_inverse[c] - W_inverse).cwiseAbs().maxCoeff(),
+              eps * W_inverse.cwiseAbs().maxCoeff())
+        << c;
+    ASSERT_LT((compact.rolling_delassus[c] - bodies.rolling_delassus[c]).cwiseAbs().maxCoeff(),
+              eps * bodies.rolling_delassus[c].cwiseAbs().maxCoeff())
+        << c;
+    ASSERT_EQ(compact.rolling_bound[c], bodies.rolling_bound[c]) << c;
+    ASSERT_EQ(compact.friction[c], bodies.friction[c]) << c;
+    ASSERT_EQ(compact.contact[c], bodies.contact[c]) << c;
+  }
+  ASSERT_EQ(compact.island_begin, bodies.island_begin);
+  ASSERT_EQ(compact.island_rows, bodies.island_rows);
+
+  // velocities of an arbitrary v: the start velocities and biases, then a random v
+  const double speed = std::max(heap.v.cwiseAbs().maxCoeff(), 1e-3);
+  for (int c = 0; c < compact.size(); ++c) {
+    ASSERT_LT((compact.velocity_start[c] - bodies.velocity_start[c]).norm(), eps * speed) << c;
+    ASSERT_NEAR(compact.normal_bias[c], bodies.normal_bias[c],
+                eps * (speed + std::abs(bodies.normal_bias[c])))
+        << c;
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  VectorX v(scene.model.nv);
+  for (int i = 0; i < v.size(); ++i) v[i] = unit(rng);
+  const PackedRows3d rows(compact);
+  for (int c = 0; c < compact.size(); ++c) {
+    const Vector3 u = bodies.localVelocity(c, v);
+    const Vector2 u_rolling = bodies.rollingVelocity(c, v);
+    Vector3 u_packed;
+    Vector2 rolling_packed;
+    packedRowVelocity3d(rows, c, v, u_packed, rolling_packed);
+    const double size = 1.0 + u.norm();
+    ASSERT_LT((compact.localVelocity(c, v) - u).norm(), eps * size) << c;
+    ASSERT_LT((u_packed - u).norm(), eps * size) << c;
+    ASSERT_LT((compact.rollingVelocity(c, v) - u_rolling).norm(), eps * size) << c;
+    ASSERT_LT((rolling_packed - u_rolling).norm(), eps * size) << c;
+  }
+  // velocity changes of an impulse, and the rolling coupling the sweeps use
+  for (int c = 0; c < compact.size(); ++c) {
+    const Vector3 dP(unit(rng), unit(rng), unit(rng));
+    const Vector2 dR(unit(rng), unit(rng));
+    VectorX v_bodies = VectorX::Zero(scene.model.nv), v_compact = v_bodies, v_packed = v_bodies;
+    bodies.applyImpulse(c, dP, v_bodies);
+    bodies.applyRolling(c, dR, v_bodies);
+    compact.applyImpulse(c, dP, v_compact);
+    compact.applyRolling(c, dR, v_compact);
+    compact.spheres3d[c].apply(dP, dR, v_packed);
+    const double size = v_bodies.norm();
+    ASSERT_LT((v_compact - v_bodies).norm(), eps * size) << c;
+    ASSERT_LT((v_packed - v_bodies).norm(), eps * size) << c;
+    const auto& s = compact.spheres3d[c];
+    const Vector2 coupled = Vector2(-s.rollingCoupling() * dP.z(), s.rollingCoupling() * dP.y());
+    const Vector2 expected = bodies.rows3d[c].rolling_coupling * dP;
+    ASSERT_LT((coupled - expected).norm(), eps * bodies.rolling_delassus[c].norm() * dP.norm())
+        << c;
+  }
+}
+
+// Scheme A's sweeps on compact sphere rows: the same sweeps as the generic reads of the same
+// rows (to round-off), and the same answer as the body-form rows up to the round-off by which
+// the rows differ, grown over the sweeps.
+TEST(PackedRows3d, CompactSphereRowsSolveLikeTheBodyForm) {
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Iqs);
+  const Scene& scene = heap.scene;
+  const test::StepProblem& step = heap.step;
+  const ContactProblem& bodies = step.problem;
+  const ContactProblem compact =
+      test::problemAt(scene, heap.q, heap.v, heap.h, NormalLaw::Iqs, true, true).problem;
+  ContactProblem generic = compact;
+  generic.packed_slot.clear();
+  ASSERT_FALSE(generic.packed3dComplete());
+
+  NlgsSettings solver;
+  solver.max_iterations = 200;  // the paths are compared, not the converged answers
+  NlgsWorkspace ws;
+  ws.prepare(compact.size(), scene.model.nv);
+  const double scale = step.v_free.norm();
+  for (const LocalSolver3d local : {LocalSolver3d::AlartCurnier, LocalSolver3d::Enumeration}) {
+    solver.local_solver_3d = local;
+    std::vector<Vector3> P1(compact.size(), Vector3::Zero()), P2 = P1, P3 = P1;
+    std::vector<Vector2> R1(compact.size(), Vector2::Zero()), R2 = R1, R3 = R1;
+    VectorX v1 = step.v_free, v2 = step.v_free, v3 = step.v_free;
+    const NlgsStats s1 = solveCoulombNlgs(compact, solver, P1, v1, ws, &R1);
+    const NlgsStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
+    const NlgsStats s3 = solveCoulombNlgs(bodies, solver, P3, v3, ws, &R3);
+    EXPECT_EQ(s1.iterations, s2.iterations);
+    EXPECT_EQ(s1.iterations, s3.iterations);
+    EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * scale);  // the contacts did act
+    EXPECT_LT((v1 - v2).norm(), 1e-10 * scale);
+    EXPECT_LT((v1 - v3).norm(), 1e-8 * scale);
+    double rolling_impulse = 0.0, impulse = 0.0, impulse_gap = 0.0;
+    for (int c = 0; c < compact.size(); ++c) {
+      rolling_impulse += R1[c].norm();
+      impulse += P3[c].norm();
+      impulse_gap += (P1[c] - P3[c]).norm();
+      EXPECT_LT((R1[c] - R2[c]).norm(), 1e-10 * (1e-12 + R2[c].norm())) << c;
+    }
+    EXPECT_GT(rolling_impulse, 0.0);
+    EXPECT_LT(impulse_gap, 1e-8 * impulse);
+  }
+}
+
 }  // namespace
 }  // namespace sweep
 
@@ -630,6 +770,7 @@ TEST_P(PackedFrictionStage3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   ASSERT_GT(packed.size(), 100);
   ContactProblem generic = packed;
   generic.rows3d.clear();
+  generic.packed_slot.clear();
 
   NlgsSettings solver;
   solver.max_iterations = 200;  // the paths are compared, not the converged answers

@@ -21,9 +21,10 @@ struct StepProblem {
 
 // The problem of the step that would start at state (q, v) (detection at that state: the
 // tests need a realistic problem, not the exact midpoint one). body_form: whether the
-// assembly may write rows over free particles in body form (ContactProblem::pack_body_form).
+// assembly may write rows over free particles in body form (ContactProblem::pack_body_form);
+// compact_spheres: rows over free spheres in compact form (ContactProblem::compact_spheres).
 inline StepProblem problemAt(const Scene& scene, const VectorX& q, const VectorX& v, double h,
-                             NormalLaw law, bool body_form = true) {
+                             NormalLaw law, bool body_form = true, bool compact_spheres = false) {
   const Model& model = scene.model;
   Data data(model);
   ContactData cdata(model, scene.cmodel);
@@ -32,6 +33,7 @@ inline StepProblem problemAt(const Scene& scene, const VectorX& q, const VectorX
                  detectionMargin(model, data, scene.cmodel, h, 0.0));
   StepProblem out;
   out.problem.pack_body_form = body_form;
+  out.problem.compact_spheres = compact_spheres;
   out.v_free = v + h * forwardDynamics(model, data, q, v, VectorX::Zero(model.nv));
   assembleContactJacobian(model, data, scene.cmodel, cdata, 0.0);
   ContactProblemWorkspace workspace(model);
