@@ -122,6 +122,7 @@ class TimeStepper {
   const StepStats& stats() const { return stats_; }
   const SchemeSettings& settings() const { return settings_; }
   const ContactData& contactData() const { return cdata_; }
+  const ContactProblem& problem() const { return problem_; }  // of the last step's solve
   // impulse (normal, tangents) of each contact of contactData().contacts in the last step
   const std::vector<Vector3>& impulses() const { return impulse_; }
   // rolling torque impulse of each contact in the last step (tangent axes; 2D: z), empty

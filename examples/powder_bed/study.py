@@ -77,6 +77,13 @@ VARIANTS = {
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9",
                    "detection.margin_rule=relative"]),
+    # and with the contacts of free spheres in compact rows (scheme.compact_sphere_rows)
+    "fast5-compact": ("the same, compact sphere rows",
+                      ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
+                       "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
+                       "scheme.coulomb.residual_check_interval=5",
+                       "scheme.coulomb.relaxation=0.9", "detection.margin_rule=relative",
+                       "scheme.compact_sphere_rows=true"]),
     "fast-3e-2": ("the same at tolerance 3e-2",
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=3e-2", "detection.speed_factor=1.25"]),

@@ -567,6 +567,60 @@ TEST_P(BothSchemes, RelativeMarginCatchesARestingPairSetMovingWithinTheStep) {
   }
 }
 
+// scheme.compact_sphere_rows: the stepper hands the option to its problem, and the rows it
+// writes (sphere on sphere, sphere on a moving driven wall, with friction and rolling
+// resistance) move the balls as the body-form rows do, to round-off. The wall pushes A into
+// B, which rolls and slides on the plate under it.
+TEST_P(BothSchemes, CompactSphereRowsMoveTheBallsAsTheBodyFormRows) {
+  const double r = 0.1, h = 1e-3, speed = 0.5;
+  ModelBuilder mb("pushed pair on a plate");
+  addFreeBody(mb, "a", solidSphereInertia(1.0, r));
+  addFreeBody(mb, "b", solidSphereInertia(2.0, 1.5 * r));
+  Pose wall_pose;  // the half-space's normal (local z) along +x, its face at x = 0
+  wall_pose.rotation = Eigen::AngleAxisd(0.5 * M_PI, Vector3::UnitY()).toRotationMatrix();
+  // a wall moving along x, and up a little: its friction turns A
+  mb.addDrivenBody(DrivenBody::constantTwist("wall", wall_pose, Vector3(speed, 0, 0.2 * speed),
+                                             Vector3::Zero()));
+  const Model model = mb.build();
+  std::vector<VectorX> end;
+  for (const bool compact : {false, true}) {
+    ContactModelBuilder cb(model);
+    ContactLaw law;
+    law.friction = 0.4;
+    law.rolling = 0.1;
+    cb.materials().setDefaultLaw(law);
+    cb.addGeometry("a", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(r));
+    cb.addGeometry("b", BodyRef::dynamic(1), Pose::identity(), Shape::sphere(1.5 * r));
+    cb.addGeometry("wall", BodyRef::driven(0), Pose::identity(), Shape::halfSpace());
+    cb.addGeometry("plate", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+    const ContactModel cmodel = cb.build();
+    ASSERT_TRUE(cmodel.rolling);
+    SchemeSettings s = settings(h);
+    s.compact_sphere_rows = compact;
+    TimeStepper stepper(model, cmodel, s);
+    VectorX q = model.neutralConfiguration();
+    q[0] = r + 1e-4;  // A against the wall, both on the plate (z up)
+    q[2] = r;
+    q[model.bodies[1].q_index] = 2.0 * r + 1.5 * r + 2e-4;
+    q[model.bodies[1].q_index + 2] = 1.5 * r;
+    stepper.reset(0.0, q, VectorX::Zero(12));
+    int compact_rows = 0;
+    for (int k = 0; k < 100; ++k) {
+      stepper.step();
+      compact_rows += static_cast<int>(stepper.problem().spheres3d.size());
+    }
+    EXPECT_EQ(compact_rows > 0, compact);
+    end.push_back(stepper.q());
+  }
+  // both balls went with the wall, and turned
+  const int b = model.bodies[1].q_index;
+  EXPECT_GT(end[0][0], r + 0.5 * 100 * h * speed);
+  EXPECT_GT(end[0][b], end[0][0]);
+  const VectorX neutral = model.neutralConfiguration();
+  EXPECT_GT((end[0].segment<4>(3) - neutral.segment<4>(3)).norm(), 1e-3);
+  EXPECT_LT((end[1] - end[0]).cwiseAbs().maxCoeff(), 1e-12);
+}
+
 // With every mu = 0 the friction stage is skipped, and B's frictionless stage solves the
 // same problem as A.
 TEST(SchemesAgree, FrictionlessPileSkipsTheFrictionStage) {
