@@ -208,6 +208,7 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
   if (ws.free_particle.size() == model.bodies.size()) return;
   ws.free_particle.assign(model.bodies.size(), 0);
   ws.sphere_particle.assign(model.bodies.size(), 0);
+  ws.sphere_particles.assign(model.bodies.size(), {});
   std::vector<char> only_centred_spheres(model.bodies.size(), 1);
   std::vector<char> has_shape(model.bodies.size(), 0);
   for (const Geometry& g : cmodel.geometries) {
@@ -228,6 +229,7 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
     ws.free_particle[b] = particle ? 1 : 0;
     const bool isotropic = sameBits(inverse[4], inverse[3]) && sameBits(inverse[5], inverse[3]);
     ws.sphere_particle[b] = particle && isotropic && has_shape[b] && only_centred_spheres[b];
+    ws.sphere_particles[b] = {body.v_index, body.component, inverse[0], inverse[3]};
   }
 }
 
@@ -566,11 +568,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         continue;
       }
       if (ref.kind != BodyRef::Kind::Dynamic) continue;
-      const Body& body = model.bodies[ref.index];
+      const ContactProblemWorkspace::SphereParticle& body = ws.sphere_particles[ref.index];
       const Pose& pose = data.world_pose[ref.index];
       const bool first = ws.touched.empty();
       ws.touched.push_back(body.component);
-      const double* inverse = data.constant_inverse_diagonal.data() + body.v_index;
       const double lever = (point - pose.translation).dot(contact.normal);
       const Vector3 axis1 = sign * (pose.rotation.transpose() * contact.tangent1);
       const Vector3 axis2 = sign * (pose.rotation.transpose() * contact.tangent2);
@@ -587,13 +588,13 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         }
         s.dof_a = body.v_index;
         s.lever_a = lever;
-        s.inverse_mass_a = inverse[0];
-        s.inverse_inertia_a = inverse[3];
+        s.inverse_mass_a = body.inverse_mass;
+        s.inverse_inertia_a = body.inverse_inertia;
       } else {
         s.dof_b = body.v_index;
         s.lever_b = lever;
-        s.inverse_mass_b = inverse[0];
-        s.inverse_inertia_b = inverse[3];
+        s.inverse_mass_b = body.inverse_mass;
+        s.inverse_inertia_b = body.inverse_inertia;
       }
     }
     // the record's velocities before the tail, which reads the start velocity through it

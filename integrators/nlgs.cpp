@@ -135,12 +135,22 @@ Vector2 minimizeOnDisc(const Matrix2& A, const Vector2& y0, const Vector2& b, do
 // dissipation. One exact local solve on the disc, as for friction; the changes enter the
 // convergence measure in units of the bound's lever, mu_r R*, so that torques weigh like
 // forces.
+// A rolling row's bound per unit normal impulse and W_r, as the residual reads them
+struct RollingRow {
+  double bound;
+  const Matrix2& W;
+};
+Vector2 rollingTarget(const RollingRow& row, int dimension, double normal_impulse, const Vector2& R,
+                      const Vector2& u) {
+  const double radius = row.bound * std::max(normal_impulse, 0.0);
+  const Matrix2& W = row.W;
+  if (dimension == 2) return Vector2(std::clamp(R.x() - u.x() / W(0, 0), -radius, radius), 0.0);
+  return minimizeOnDisc(W, R, u, radius);
+}
 Vector2 rollingTarget(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
                       const Vector2& u) {
-  const double radius = p.rolling_bound[c] * std::max(normal_impulse, 0.0);
-  const Matrix2& W = p.rolling_delassus[c];
-  if (p.dimension == 2) return Vector2(std::clamp(R.x() - u.x() / W(0, 0), -radius, radius), 0.0);
-  return minimizeOnDisc(W, R, u, radius);
+  return rollingTarget({p.rolling_bound[c], p.rolling_delassus[c]}, p.dimension, normal_impulse, R,
+                       u);
 }
 
 // Relaxation moves an impulse the fraction omega of the way to its local solution, except when
@@ -178,16 +188,21 @@ void rollingUpdate(const ContactProblem& p, int c, double normal_impulse, double
 }
 
 // natural-map residual of the rolling rows, in the same units
-void rollingResidual(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
+void rollingResidual(const RollingRow& row, int dimension, double normal_impulse, const Vector2& R,
                      const Vector2& u, double& f2, double& scale2) {
-  const double lever2 = p.rolling_bound[c] * p.rolling_bound[c];
+  const double lever2 = row.bound * row.bound;
   // no torque on a disc of radius zero (no normal impulse): the target is zero and so is the
   // residual, whatever the velocity; the open rows of a screened powder step are such
   if (!(R.isZero(0.0) && normal_impulse <= 0.0)) {
-    const Vector2 f = R - rollingTarget(p, c, normal_impulse, R, u);
+    const Vector2 f = R - rollingTarget(row, dimension, normal_impulse, R, u);
     f2 += f.squaredNorm() / lever2;
   }
-  scale2 += std::max(R.squaredNorm(), (u / p.rolling_delassus[c](0, 0)).squaredNorm()) / lever2;
+  scale2 += std::max(R.squaredNorm(), (u / row.W(0, 0)).squaredNorm()) / lever2;
+}
+void rollingResidual(const ContactProblem& p, int c, double normal_impulse, const Vector2& R,
+                     const Vector2& u, double& f2, double& scale2) {
+  rollingResidual({p.rolling_bound[c], p.rolling_delassus[c]}, p.dimension, normal_impulse, R, u,
+                  f2, scale2);
 }
 
 bool hasRollingRow(const ContactProblem& p, const std::vector<Vector2>* R, int c) {
@@ -234,6 +249,31 @@ bool residualDue(const NlgsSettings& settings, int it, double change2, double si
 // ---------------------------------------------------------------------------------------
 
 namespace {
+// Prefetches for update k of a sweep over compact sphere rows: the record of the row
+// kSphereRecordAhead rows on, and the second sphere's velocity of the row kSphereVelocityAhead
+// rows on, whose record is then in cache. The first sphere's velocities come in the rows'
+// order, which the hardware prefetcher follows; the second's do not. On the wide powder bed
+// the rows stream about a megabyte between two visits of one sphere, more than this core's
+// L2, and the loads of v_b were the sweep's largest stall. No number changes.
+constexpr int kSphereRecordAhead = 16, kSphereVelocityAhead = 8;
+[[gnu::always_inline]] inline void prefetchSphereRow(const PackedRows3d& rows, const int* order,
+                                                     int k, int n, const VectorX& v) {
+  if (k + kSphereRecordAhead < n) {
+    const int slot = rows.slot[order[k + kSphereRecordAhead]];
+    if (slot < 0) __builtin_prefetch(&rows.spheres[-1 - slot]);
+  }
+  if (k + kSphereVelocityAhead < n) {
+    const int slot = rows.slot[order[k + kSphereVelocityAhead]];
+    if (slot < 0) {
+      const int dof_b = rows.spheres[-1 - slot].dof_b;
+      if (dof_b >= 0) {  // six velocities: one or two cache lines
+        __builtin_prefetch(v.data() + dof_b);
+        __builtin_prefetch(v.data() + dof_b + 5);
+      }
+    }
+  }
+}
+
 // natural map with rho = 1 / W_NN per contact, so that the residual is an impulse and
 // comparable to P (Siconos mixes impulses and velocities)
 double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
@@ -243,26 +283,44 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
   // packed 3D rows: one pass for the contact's and its rolling row's velocities, the same sums
   const bool packed3d = p.packed3dComplete();
   const PackedRows3d rows(p);
+  // one row's terms from its velocities, W_NN, bias, mu and rolling row
+  auto add = [&](int c, Vector3 u, const Vector2& u_rolling, double W_NN, double bias, double mu,
+                 const RollingRow& rolling_row) {
+    if (R != nullptr && p.rolling && rolling_row.bound > 0.0)
+      rollingResidual(rolling_row, p.dimension, P[c].x(), (*R)[c], u_rolling, f2, scale2);
+    u.x() += bias;
+    const Vector3 ru = u / W_NN;
+    // P = 0 with U*_N >= 0 meets the law: the cone's projection of -(U* + mu |U*_T| e_N) is
+    // then zero in floating point too (U*_N + mu |U*_T| >= mu |U*_T|), and the map adds
+    // nothing. A screened powder step's open rows, 40 % of its rows, skip the projection.
+    if (!(P[c].isZero(0.0) && ru.x() >= 0.0))
+      f2 += coulombNaturalMap(P[c], ru, mu, p.dimension).squaredNorm();
+    scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
+  };
+  static const Matrix2 kNoRolling = Matrix2::Identity();
   for (int k = 0; k < count; ++k) {
     const int c = ws.order[k];
-    const bool rolling_row = hasRollingRow(p, R, c);
     Vector3 u;
-    Vector2 u_rolling;
+    Vector2 u_rolling = Vector2::Zero();
+    if (packed3d && rows.slot[c] < 0) {
+      // a compact sphere row holds all the residual reads, with the bits of the arrays
+      prefetchSphereRow(rows, ws.order.data(), k, count, v);
+      const ContactProblem::PackedSphere3d& s = rows.spheres[-1 - rows.slot[c]];
+      s.velocity(v, u, u_rolling);
+      const Matrix2 W_r = Matrix2::Identity() * (s.inverse_inertia_a + s.inverse_inertia_b);
+      add(c, u, u_rolling, s.W_N(), s.bias, s.mu, {s.rolling_bound, W_r});
+      continue;
+    }
+    const bool rolling_row = hasRollingRow(p, R, c);
     if (packed3d) {
       packedRowVelocity3d(rows, c, v, u, u_rolling);
     } else {
       u = p.localVelocity(c, v);
       if (rolling_row) u_rolling = p.rollingVelocity(c, v);
     }
-    if (rolling_row) rollingResidual(p, c, P[c].x(), (*R)[c], u_rolling, f2, scale2);
-    u.x() += p.normal_bias[c];
-    const Vector3 ru = u / p.delassus[c](0, 0);
-    // P = 0 with U*_N >= 0 meets the law: the cone's projection of -(U* + mu |U*_T| e_N) is
-    // then zero in floating point too (U*_N + mu |U*_T| >= mu |U*_T|), and the map adds
-    // nothing. A screened powder step's open rows, 40 % of its rows, skip the projection.
-    if (!(P[c].isZero(0.0) && ru.x() >= 0.0))
-      f2 += coulombNaturalMap(P[c], ru, p.friction[c], p.dimension).squaredNorm();
-    scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
+    add(c, u, u_rolling, p.delassus[c](0, 0), p.normal_bias[c], p.friction[c],
+        rolling_row ? RollingRow{p.rolling_bound[c], p.rolling_delassus[c]}
+                    : RollingRow{0.0, kNoRolling});
   }
   return relative(f2, scale2);
 }
@@ -372,31 +430,6 @@ struct SphereRow3d {
   Matrix2 rollingW() const { return Matrix2::Identity() / r.rolling_inverse; }
   void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const { r.apply(dP, dR, v); }
 };
-
-// Prefetches for update k of a sweep over compact sphere rows: the record of the row
-// kSphereRecordAhead rows on, and the second sphere's velocity of the row kSphereVelocityAhead
-// rows on, whose record is then in cache. The first sphere's velocities come in the rows'
-// order, which the hardware prefetcher follows; the second's do not. On the wide powder bed
-// the rows stream about a megabyte between two visits of one sphere, more than this core's
-// L2, and the loads of v_b were the sweep's largest stall. No number changes.
-constexpr int kSphereRecordAhead = 16, kSphereVelocityAhead = 8;
-[[gnu::always_inline]] inline void prefetchSphereRow(const PackedRows3d& rows, const int* order,
-                                                     int k, int n, const VectorX& v) {
-  if (k + kSphereRecordAhead < n) {
-    const int slot = rows.slot[order[k + kSphereRecordAhead]];
-    if (slot < 0) __builtin_prefetch(&rows.spheres[-1 - slot]);
-  }
-  if (k + kSphereVelocityAhead < n) {
-    const int slot = rows.slot[order[k + kSphereVelocityAhead]];
-    if (slot < 0) {
-      const int dof_b = rows.spheres[-1 - slot].dof_b;
-      if (dof_b >= 0) {  // six velocities: one or two cache lines
-        __builtin_prefetch(v.data() + dof_b);
-        __builtin_prefetch(v.data() + dof_b + 5);
-      }
-    }
-  }
-}
 
 // One 3D update on a packed row, the rolling rows (when R is given) in the same pass: the
 // same block Gauss-Seidel as the generic path below (contact first, then its rolling rows on
