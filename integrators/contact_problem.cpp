@@ -471,6 +471,22 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     finishRowTail(pc, W, W_r, known, gap, mu, e, known_spin, rolling_bound);
   };
 
+  // The two sides of a contact written from its frame and points: a driven side adds its
+  // motion at t to known and spin; visit(body, point, sign) for each dynamic side, with sign
+  // -1 on side a and +1 on side b
+  auto forEachSide = [&](const Contact& contact, Vector3& known, Vector2& spin, auto&& visit) {
+    for (int side = 0; side < 2; ++side) {
+      const BodyRef& ref = side == 0 ? contact.body_a : contact.body_b;
+      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
+      const double sign = side == 0 ? -1.0 : 1.0;
+      if (ref.kind == BodyRef::Kind::Driven)
+        addDrivenVelocity(model.driven_bodies[ref.index], contact, point, contact.tangent1,
+                          contact.tangent2, sign, t, known, spin);
+      else if (ref.kind == BodyRef::Kind::Dynamic)
+        visit(ref.index, point, sign);
+    }
+  };
+
   // A row over free particles, written straight in body form from the contact's frame and
   // points (rowInBodyForm): the Jacobian's columns of a free body with the arithmetic of
   // assembleContactJacobian, W_cc and W_r over the entries the record stands for in their
@@ -491,18 +507,9 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     const Vector3& roll1 = contact.tangent1;
     const Vector3& roll2 = contact.tangent2;
     ws.touched.clear();
-    for (int side = 0; side < 2; ++side) {
-      const BodyRef& ref = side == 0 ? contact.body_a : contact.body_b;
-      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
-      const double sign = side == 0 ? -1.0 : 1.0;
-      if (ref.kind == BodyRef::Kind::Driven) {
-        addDrivenVelocity(model.driven_bodies[ref.index], contact, point, roll1, roll2, sign, t,
-                          known, spin);
-        continue;
-      }
-      if (ref.kind != BodyRef::Kind::Dynamic) continue;
-      const Body& body = model.bodies[ref.index];
-      const Pose& pose = data.world_pose[ref.index];
+    forEachSide(contact, known, spin, [&](int index, const Vector3& point, double sign) {
+      const Body& body = model.bodies[index];
+      const Pose& pose = data.world_pose[index];
       const Vector3 lever = point - pose.translation;
       const bool first = ws.touched.empty();
       ws.touched.push_back(body.component);
@@ -537,7 +544,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         }
         inertia[k] = inverse[3 + k];
       }
-    }
+    });
     Matrix3 W;
     Matrix2 W_r;
     diagonalDelassus(pc, W, W_r);  // as for the same row in entry form
@@ -558,18 +565,9 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
     ws.touched.clear();
-    for (int side = 0; side < 2; ++side) {
-      const BodyRef& ref = side == 0 ? contact.body_a : contact.body_b;
-      const Vector3& point = side == 0 ? contact.point_a : contact.point_b;
-      const double sign = side == 0 ? -1.0 : 1.0;
-      if (ref.kind == BodyRef::Kind::Driven) {
-        addDrivenVelocity(model.driven_bodies[ref.index], contact, point, contact.tangent1,
-                          contact.tangent2, sign, t, known, spin);
-        continue;
-      }
-      if (ref.kind != BodyRef::Kind::Dynamic) continue;
-      const ContactProblemWorkspace::SphereParticle& body = ws.sphere_particles[ref.index];
-      const Pose& pose = data.world_pose[ref.index];
+    forEachSide(contact, known, spin, [&](int index, const Vector3& point, double sign) {
+      const ContactProblemWorkspace::SphereParticle& body = ws.sphere_particles[index];
+      const Pose& pose = data.world_pose[index];
       const bool first = ws.touched.empty();
       ws.touched.push_back(body.component);
       const double lever = (point - pose.translation).dot(contact.normal);
@@ -596,7 +594,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
         s.inverse_mass_b = body.inverse_mass;
         s.inverse_inertia_b = body.inverse_inertia;
       }
-    }
+    });
     // the record's velocities before the tail, which reads the start velocity through it
     for (int k = 0; k < 3; ++k) s.known[k] = known[k];
     s.rolling_known[0] = spin.x();
