@@ -199,11 +199,11 @@ struct ContactProblem {
       double linear[3];
       relativeLinear(v, linear);
       // (a.w, b.w) of one side, zero for a side that does not move
-      auto turn = [&](int dof, const double(&axes)[2][3], double(&out)[2])
+      auto turn = [&](int first, const double(&axes)[2][3], double(&out)[2])
           __attribute__((always_inline)) {
         out[0] = out[1] = 0.0;
-        if (dof < 0) return;
-        const double* w = v.data() + dof + 3;
+        if (first < 0) return;
+        const double* w = v.data() + first + 3;
         for (int j = 0; j < 2; ++j)
           out[j] = axes[j][0] * w[0] + axes[j][1] * w[1] + axes[j][2] * w[2];
       };
@@ -225,9 +225,9 @@ struct ContactProblem {
       double linear[3];
       for (int i = 0; i < 3; ++i)
         linear[i] = normal[i] * dP.x() + tangent[0][i] * dP.y() + tangent[1][i] * dP.z();
-      auto side = [&](int dof, double inverse_mass, double lever, const double(&axes)[2][3],
+      auto side = [&](int first, double inverse_mass, double lever, const double(&axes)[2][3],
                       double inverse_inertia, double sign) __attribute__((always_inline)) {
-        double* vs = v.data() + dof;
+        double* vs = v.data() + first;
         const double scaled = sign * inverse_mass;
         for (int i = 0; i < 3; ++i) vs[i] += scaled * linear[i];
         const double along1 = inverse_inertia * (dR.x() - lever * dP.z());
