@@ -207,7 +207,6 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
                        ContactProblemWorkspace& ws) {
   if (ws.free_particle.size() == model.bodies.size()) return;
   ws.free_particle.assign(model.bodies.size(), 0);
-  ws.sphere_particle.assign(model.bodies.size(), 0);
   ws.sphere_particles.assign(model.bodies.size(), {});
   std::vector<char> only_centred_spheres(model.bodies.size(), 1);
   std::vector<char> has_shape(model.bodies.size(), 0);
@@ -228,8 +227,8 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
     for (int i = 1; i < 3; ++i) particle = particle && sameBits(inverse[i], inverse[0]);
     ws.free_particle[b] = particle ? 1 : 0;
     const bool isotropic = sameBits(inverse[4], inverse[3]) && sameBits(inverse[5], inverse[3]);
-    ws.sphere_particle[b] = particle && isotropic && has_shape[b] && only_centred_spheres[b];
-    ws.sphere_particles[b] = {body.v_index, body.component, inverse[0], inverse[3]};
+    if (particle && isotropic && has_shape[b] && only_centred_spheres[b])
+      ws.sphere_particles[b] = {body.v_index, body.component, inverse[0], inverse[3]};
   }
 }
 
@@ -253,7 +252,8 @@ namespace {
 // particle (call after rowInBodyForm returned true for the contact).
 bool sphereRowFits(const Contact& contact, const ContactProblemWorkspace& workspace) {
   for (const BodyRef& body : {contact.body_a, contact.body_b})
-    if (body.kind == BodyRef::Kind::Dynamic && !workspace.sphere_particle[body.index]) return false;
+    if (body.kind == BodyRef::Kind::Dynamic && workspace.sphere_particles[body.index].v_index < 0)
+      return false;
   return true;
 }
 }  // namespace

@@ -411,11 +411,11 @@ struct ContactProblemWorkspace {
   // per body: a free particle, whose contacts the assembly writes straight in body form
   // (see rowInBodyForm); filled on first use from the constant inverse masses of the Data
   std::vector<char> free_particle;
-  std::vector<char> sphere_particle;  // per body: a free particle fit for PackedSphere3d rows
-  // per sphere particle, what its rows read of the body: 24 bytes instead of a Body record
-  // and a line of inverse masses, each a cache miss per contact on a wide powder bed
+  // per body: a free particle fit for PackedSphere3d rows (v_index >= 0), and what its rows
+  // read of the body: 24 bytes instead of a Body record and a line of inverse masses, each a
+  // cache miss per contact on a wide powder bed
   struct SphereParticle {
-    int v_index = 0;
+    int v_index = -1;  // -1: not such a particle
     int component = 0;
     double inverse_mass = 0.0;
     double inverse_inertia = 0.0;
