@@ -64,7 +64,7 @@ TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
       v_free_(v_),
       tau_(VectorX::Zero(model.nv)) {
   settings_.validate();
-  problem_.compact_spheres = settings_.compact_sphere_rows;
+  problem_.compact_spheres = settings_.compactSphereRows();
 }
 
 void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {

@@ -1,4 +1,5 @@
 #pragma once
+#include <optional>
 // The two NSCD time-stepping schemes on one pipeline. Steps 1, 2, 4 and 6 are shared; steps
 // 3 and 5 differ (reference: ../shared/reference/schemes.md, docs/schemes.md).
 //
@@ -57,9 +58,13 @@ struct SchemeSettings {
   int screening_rounds = 8;
   double screening_gap = -1.0;
   // 3D: contacts of free spheres as compact rows (ContactProblem::PackedSphere3d), 320 bytes
-  // against 704, equal to the default rows up to round-off. Scheme A's sweeps read them
-  // directly; scheme B's friction stage reads them through the generic path.
-  bool compact_sphere_rows = false;
+  // against 704 for the body-form rows, equal to them up to round-off. Scheme A's sweeps read
+  // them directly; scheme B's friction stage reads them through the generic path and has a
+  // packed path for body-form rows only. Unset (auto): compact for scheme A, body form for B.
+  std::optional<bool> compact_sphere_rows;
+  bool compactSphereRows() const {
+    return compact_sphere_rows.value_or(scheme == Scheme::MoreauJean);
+  }
 
   void validate() const;
 };

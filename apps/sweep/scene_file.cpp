@@ -727,7 +727,18 @@ class SceneParser {
     if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
     s.screening_rounds = static_cast<int>(rounds);
     if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
-    s.compact_sphere_rows = f.boolean("compact_sphere_rows", s.compact_sphere_rows);
+    if (f.has("compact_sphere_rows")) {
+      // auto (the default): compact for scheme A, body form for B (time_stepper.hpp)
+      const YamlField field = f["compact_sphere_rows"];
+      const std::string value = field.isScalar() ? field.text() : std::string();
+      if (value == "auto")
+        s.compact_sphere_rows.reset();
+      else if (value == "true" || value == "false" || value == "yes" || value == "no" ||
+               value == "on" || value == "off")
+        s.compact_sphere_rows = field.boolean();
+      else
+        field.fail("must be auto, true or false");
+    }
     if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
     if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
     if (f.has("friction_stage"))
@@ -1058,7 +1069,11 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "screening" << YAML::Value << s.screening;
   out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
   if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
-  out << YAML::Key << "compact_sphere_rows" << YAML::Value << s.compact_sphere_rows;
+  out << YAML::Key << "compact_sphere_rows";
+  if (s.compact_sphere_rows)
+    out << YAML::Value << *s.compact_sphere_rows;
+  else
+    out << YAML::Value << "auto";
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
       << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;

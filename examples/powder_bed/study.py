@@ -71,12 +71,13 @@ VARIANTS = {
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9"]),
-    # and with the balls' margin from their relative speeds (detection.margin_rule)
-    "fast5-rel": ("the same, relative ball margins",
+    # and with the balls' margin from their relative speeds (detection.margin_rule), on the
+    # body-form rows (scheme A's rows before compact rows became its default, 2026-11-25)
+    "fast5-rel": ("the same, relative ball margins, body-form rows",
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9",
-                   "detection.margin_rule=relative"]),
+                   "detection.margin_rule=relative", "scheme.compact_sphere_rows=false"]),
     # and with the contacts of free spheres in compact rows (scheme.compact_sphere_rows)
     "fast5-compact": ("the same, compact sphere rows",
                       ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",

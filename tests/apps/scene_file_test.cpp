@@ -5,6 +5,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "apps/sweep/run.hpp"
 #include "apps/sweep/scene_file.hpp"
@@ -161,6 +164,34 @@ TEST(SceneFile, ExportedFunnelLoadsBackToTheSameScene) {
   const RunSummary y = runScene(buildSceneFile(back), settings, {});
   EXPECT_EQ(x.penetration_cumulative, y.penetration_cumulative);
   EXPECT_EQ(x.energy_final, y.energy_final);
+}
+
+// scheme.compact_sphere_rows: absent or auto leaves the choice to the scheme (compact rows for
+// A, body form for B); true and false are kept; an export writes what was read.
+TEST(SceneFile, CompactSphereRowsAreAutoUnlessSet) {
+  const std::string funnel = std::string(SWEEP_SOURCE_DIR) + "/examples/funnel/funnel.yaml";
+  struct Case {
+    std::vector<std::string> overrides;
+    std::optional<bool> expected;
+  };
+  const std::vector<Case> cases = {{{}, std::nullopt},
+                                   {{"scheme.compact_sphere_rows=auto"}, std::nullopt},
+                                   {{"scheme.compact_sphere_rows=true"}, true},
+                                   {{"scheme.compact_sphere_rows=false"}, false}};
+  for (const Case& c : cases) {
+    const SceneFile file = loadSceneFile(funnel, c.overrides);
+    EXPECT_EQ(file.run.scheme.compact_sphere_rows, c.expected);
+    const std::string path = ::testing::TempDir() + "/funnel_compact.yaml";
+    writeSceneFile(file, path);
+    EXPECT_EQ(loadSceneFile(path).run.scheme.compact_sphere_rows, c.expected);
+  }
+  SchemeSettings s;
+  s.scheme = Scheme::MoreauJean;
+  EXPECT_TRUE(s.compactSphereRows());
+  s.scheme = Scheme::CatchingUp;
+  EXPECT_FALSE(s.compactSphereRows());
+  s.compact_sphere_rows = true;
+  EXPECT_TRUE(s.compactSphereRows());
 }
 
 // Loads: a constant force on a free sphere's centre gives a = F / m; a ramp torque gives a

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "framework/configuration.hpp"
 #include "framework/kinematics.hpp"
@@ -570,7 +571,8 @@ TEST_P(BothSchemes, RelativeMarginCatchesARestingPairSetMovingWithinTheStep) {
 // scheme.compact_sphere_rows: the stepper hands the option to its problem, and the rows it
 // writes (sphere on sphere, sphere on a moving driven wall, with friction and rolling
 // resistance) move the balls as the body-form rows do, to round-off. The wall pushes A into
-// B, which rolls and slides on the plate under it.
+// B, which rolls and slides on the plate under it. Unset, the option means compact rows for
+// scheme A and body-form rows for B, bit for bit.
 TEST_P(BothSchemes, CompactSphereRowsMoveTheBallsAsTheBodyFormRows) {
   const double r = 0.1, h = 1e-3, speed = 0.5;
   ModelBuilder mb("pushed pair on a plate");
@@ -583,7 +585,8 @@ TEST_P(BothSchemes, CompactSphereRowsMoveTheBallsAsTheBodyFormRows) {
                                              Vector3::Zero()));
   const Model model = mb.build();
   std::vector<VectorX> end;
-  for (const bool compact : {false, true}) {
+  for (const std::optional<bool> option :
+       {std::optional<bool>(false), std::optional<bool>(true), std::optional<bool>()}) {
     ContactModelBuilder cb(model);
     ContactLaw law;
     law.friction = 0.4;
@@ -596,7 +599,9 @@ TEST_P(BothSchemes, CompactSphereRowsMoveTheBallsAsTheBodyFormRows) {
     const ContactModel cmodel = cb.build();
     ASSERT_TRUE(cmodel.rolling);
     SchemeSettings s = settings(h);
-    s.compact_sphere_rows = compact;
+    s.compact_sphere_rows = option;
+    const bool compact = option.value_or(s.scheme == Scheme::MoreauJean);
+    EXPECT_EQ(s.compactSphereRows(), compact);
     TimeStepper stepper(model, cmodel, s);
     VectorX q = model.neutralConfiguration();
     q[0] = r + 1e-4;  // A against the wall, both on the plate (z up)
@@ -619,6 +624,7 @@ TEST_P(BothSchemes, CompactSphereRowsMoveTheBallsAsTheBodyFormRows) {
   const VectorX neutral = model.neutralConfiguration();
   EXPECT_GT((end[0].segment<4>(3) - neutral.segment<4>(3)).norm(), 1e-3);
   EXPECT_LT((end[1] - end[0]).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(end[2], end[GetParam() == Scheme::MoreauJean ? 1 : 0]);
 }
 
 // With every mu = 0 the friction stage is skipped, and B's frictionless stage solves the
