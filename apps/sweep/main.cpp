@@ -89,12 +89,15 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "sweep 0.1.0");
 
   std::string scene_path, out_dir, scheme_name;
-  std::vector<std::string> overrides;
+  std::vector<std::string> overrides, settings_files;
   double dt = 0.0, t_end = 0.0;
   bool quiet = false;
   auto addSceneOptions = [&](CLI::App* command) {
     command->add_option("scene", scene_path, "scene file (YAML)")->required();
     command->add_option("--set", overrides, "override a scene field: path=value (repeatable)");
+    command->add_option("--set-file", settings_files,
+                        "override scene fields from a YAML map of path: value entries, "
+                        "before any --set (repeatable)");
   };
 
   CLI::App* run = app.add_subcommand("run", "run a scene and write its results");
@@ -143,7 +146,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   try {
-    sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides);
+    sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
     if (run->parsed() && run->count("--dt") > 0) {
       if (!(dt > 0.0) || !std::isfinite(dt))

@@ -805,8 +805,11 @@ class SceneParser {
 
 }  // namespace
 
-SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides) {
+SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides,
+                        const std::vector<std::string>& settings_files) {
   YAML::Node root = loadYamlFile(path);
+  for (const std::string& settings : settings_files)
+    for (const FieldOverride& o : loadOverrideFile(settings)) applyOverride(root, o, path);
   for (const std::string& o : overrides) applyOverride(root, o, path);
   SceneFile scene;
   scene.path = path;

@@ -35,9 +35,12 @@ struct SceneFile {
   RunSettings run;
 };
 
-// Reads and validates a scene file after applying `overrides` (path=value, as --set gives
-// them). InputError for anything wrong, naming file, field and value.
-SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides = {});
+// Reads and validates a scene file after applying the entries of `settings_files` (as
+// --set-file gives them, in order) and then `overrides` (path=value, as --set gives them), so
+// the command line has the last word. InputError for anything wrong, naming file, field and
+// value.
+SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides = {},
+                        const std::vector<std::string>& settings_files = {});
 
 // The most bodies one generator may make.
 inline constexpr long kMaxGeneratorCount = 10000000;

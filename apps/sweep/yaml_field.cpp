@@ -160,17 +160,47 @@ YAML::Node loadYamlFile(const std::string& path) {
   }
 }
 
-void applyOverride(YAML::Node& root, const std::string& assignment, const std::string& file) {
+FieldOverride parseOverride(const std::string& assignment) {
   const auto equals = assignment.find('=');
   if (equals == std::string::npos || equals == 0)
     throw InputError("--set " + assignment + ": expected path=value, e.g. scheme.h=1e-4");
-  const std::string path = assignment.substr(0, equals);
-  YAML::Node value;
+  FieldOverride result;
+  result.path = assignment.substr(0, equals);
+  result.origin = "--set " + assignment;
   try {
-    value = YAML::Load(assignment.substr(equals + 1));
+    result.value = YAML::Load(assignment.substr(equals + 1));
   } catch (const YAML::Exception& e) {
     throw InputError("--set " + assignment + ": the value is not YAML: " + e.msg);
   }
+  return result;
+}
+
+std::vector<FieldOverride> loadOverrideFile(const std::string& path) {
+  const YAML::Node root = loadYamlFile(path);
+  if (!root.IsMap())
+    throw InputError(path + ": a settings file is a map of path: value entries (scheme.h: 1e-4)");
+  std::vector<FieldOverride> entries;
+  for (const auto& entry : root) {
+    FieldOverride o;
+    if (!entry.first.IsScalar() || entry.first.Scalar().empty())
+      throw InputError(path + ":" + std::to_string(entry.first.Mark().line + 1) +
+                       ": expected a field path as the key, e.g. scheme.h");
+    o.path = entry.first.Scalar();
+    o.value = entry.second;
+    o.origin = path + ": " + o.path;
+    entries.push_back(std::move(o));
+  }
+  return entries;
+}
+
+void applyOverride(YAML::Node& root, const std::string& assignment, const std::string& file) {
+  applyOverride(root, parseOverride(assignment), file);
+}
+
+void applyOverride(YAML::Node& root, const FieldOverride& override_, const std::string& file) {
+  const std::string& path = override_.path;
+  const YAML::Node& value = override_.value;
+  const std::string& origin = override_.origin;
   // walk with node handles; yaml-cpp's operator= on a handle would rebind it, so descend by
   // reset() and assign the leaf through its parent
   YAML::Node node = root;
@@ -179,11 +209,11 @@ void applyOverride(YAML::Node& root, const std::string& assignment, const std::s
     std::size_t stop = path.find_first_of(".[", start);
     std::string key = path.substr(start, stop - start);
     if (key.empty() && (stop == std::string::npos || path[stop] != '['))
-      throw InputError("--set " + assignment + ": empty field name in '" + path + "'");
+      throw InputError(origin + ": empty field name in '" + path + "'");
     YAML::Node next;
     if (!key.empty()) {
       if (!node.IsMap() && !node.IsNull())
-        throw InputError("--set " + assignment + ": " + file + ": '" + key +
+        throw InputError(origin + ": " + file + ": '" + key +
                          "' is inside something that is not a map");
       if (stop == std::string::npos) {
         node[key] = value;
@@ -198,15 +228,13 @@ void applyOverride(YAML::Node& root, const std::string& assignment, const std::s
     }
     if (path[stop] == '[') {
       const std::size_t close = path.find(']', stop);
-      if (close == std::string::npos)
-        throw InputError("--set " + assignment + ": missing ']' in '" + path + "'");
+      if (close == std::string::npos) throw InputError(origin + ": missing ']' in '" + path + "'");
       const std::string digits = path.substr(stop + 1, close - stop - 1);
       char* end = nullptr;
       const long index = std::strtol(digits.c_str(), &end, 10);
       if (digits.empty() || *end != '\0' || !node.IsSequence() || index < 0 ||
           index >= static_cast<long>(node.size()))
-        throw InputError("--set " + assignment + ": " + file + ": no element [" + digits +
-                         "] there");
+        throw InputError(origin + ": " + file + ": no element [" + digits + "] there");
       if (close + 1 == path.size()) {
         node[index] = value;
         return;
@@ -215,7 +243,7 @@ void applyOverride(YAML::Node& root, const std::string& assignment, const std::s
       node.reset(next);
       stop = close + 1;
       if (path[stop] != '.')
-        throw InputError("--set " + assignment + ": expected '.' after ']' in '" + path + "'");
+        throw InputError(origin + ": expected '.' after ']' in '" + path + "'");
     }
     start = stop + 1;
   }

@@ -64,9 +64,28 @@ class YamlField {
 // Parses a YAML file; syntax errors become InputError with line and column.
 YAML::Node loadYamlFile(const std::string& path);
 
-// Applies `path=value` (path as in messages: scheme.h, bodies[2].radius) to a document; the
-// value is parsed as YAML, so lists and numbers keep their types. InputError on a malformed
-// assignment or a path through a non-map.
+// One field to replace before a scene is parsed: `path` as in messages (scheme.h,
+// bodies[2].radius), `value` as YAML, so lists and numbers keep their types, and `origin`,
+// where it came from, to start every message about it ("--set scheme.h=1e-4",
+// "fast.yaml: scheme.h").
+struct FieldOverride {
+  std::string path;
+  YAML::Node value;
+  std::string origin;
+};
+
+// `path=value` as `--set` takes it. InputError on a malformed assignment.
+FieldOverride parseOverride(const std::string& assignment);
+
+// A settings file for `--set-file`: a YAML map of `path: value` entries, each one `--set`,
+// in file order. InputError naming the file (and the entry) when it is missing, not a map,
+// or has an empty path.
+std::vector<FieldOverride> loadOverrideFile(const std::string& path);
+
+// Replaces the field in a document (the whole field: a map value replaces the section, as
+// writing it in the file would). InputError on a path through a non-map or to a missing
+// sequence element.
+void applyOverride(YAML::Node& root, const FieldOverride& override_, const std::string& file);
 void applyOverride(YAML::Node& root, const std::string& assignment, const std::string& file);
 
 }  // namespace sweep

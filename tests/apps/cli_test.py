@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """End-to-end tests of the `sweep` binary: files written by run and bench, exit codes,
-messages of the malformed-scene catalogue, --set, and Ctrl-C. Usage: cli_test.py SWEEP DATA"""
+messages of the malformed-scene catalogue, --set, --set-file, and Ctrl-C. Usage: cli_test.py SWEEP DATA"""
 import csv
 import hashlib
 import json
@@ -160,6 +160,23 @@ class Inputs(unittest.TestCase):
             s = json.load(f)
         self.assertEqual(s["scheme"], "moreau-jean")
         self.assertEqual(s["steps"], 20)
+
+    def test_settings_file_overrides_the_scene_and_set_wins(self):
+        r = sweep("check", "small_box.yaml", "--set-file", "settings/small_box_fine.yaml")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("h = 5e-05 s", r.stdout)
+        self.assertIn("normal law POS", r.stdout)
+        self.assertIn("10 with a constant mass block", r.stdout)
+        r = sweep("check", "small_box.yaml", "--set-file", "settings/small_box_fine.yaml",
+                  "--set", "time.step=2e-5")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("h = 2e-05 s", r.stdout)
+        r = sweep("run", "small_box.yaml", "--set-file", "settings/none.yaml")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("settings/none.yaml: cannot open the file", r.stderr)
+        r = sweep("run", "small_box.yaml", "--set-file", "settings/bad/through_a_number.yaml")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("settings/bad/through_a_number.yaml: time.step.value:", r.stderr)
 
     def test_without_timings_stats_are_bitwise_reproducible(self):
         """stats.csv and the final state (final_state.csv: q and v at 17 digits) hash the

@@ -1,6 +1,6 @@
 // Scene files: the malformed catalogue (exact messages), what a valid file builds, the Hall
-// funnel as generator and as explicit file, --set overrides, and a run's summary against its
-// own per-step record.
+// funnel as generator and as explicit file, --set overrides and settings files, and a run's summary
+// against its own per-step record.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -40,24 +40,32 @@ std::string expectedMessage(const fs::path& file) {
   return first.rfind(tag, 0) == 0 ? first.substr(tag.size()) : "";
 }
 
-TEST_F(InScenesFolder, EveryMalformedSceneIsRejectedWithItsExactMessage) {
+// Loads each file of `folder` with `load` and compares the InputError with the file's
+// `# expect:` line; returns how many files it checked.
+template <typename Load>
+int expectEachRejectedWithItsMessage(const std::string& folder, Load load) {
   int checked = 0;
   std::vector<fs::path> files;
-  for (const auto& entry : fs::directory_iterator("bad")) files.push_back(entry.path());
+  for (const auto& entry : fs::directory_iterator(folder)) files.push_back(entry.path());
   std::sort(files.begin(), files.end());
   for (const fs::path& file : files) {
     const std::string expected = expectedMessage(file);
-    ASSERT_FALSE(expected.empty()) << file << " has no '# expect:' line";
+    EXPECT_FALSE(expected.empty()) << file << " has no '# expect:' line";
     std::string got;
     try {
-      const SceneFile scene = loadSceneFile(file.string());
-      buildSceneFile(scene);
+      load(file.string());
     } catch (const InputError& e) {
       got = e.what();
     }
     EXPECT_EQ(got, expected) << file;
     ++checked;
   }
+  return checked;
+}
+
+TEST_F(InScenesFolder, EveryMalformedSceneIsRejectedWithItsExactMessage) {
+  const int checked = expectEachRejectedWithItsMessage(
+      "bad", [](const std::string& file) { buildSceneFile(loadSceneFile(file)); });
   EXPECT_GE(checked, 50);
 }
 
@@ -107,6 +115,56 @@ TEST_F(InScenesFolder, OverridesReachTheScene) {
   EXPECT_THROW(loadSceneFile("small_box.yaml", {"time.stepp=1"}), InputError);
   EXPECT_THROW(loadSceneFile("small_box.yaml", {"generators[7].count=1"}), InputError);
   EXPECT_THROW(loadSceneFile("small_box.yaml", {"no_equals_sign"}), InputError);
+}
+
+TEST_F(InScenesFolder, SettingsFilesReachTheSceneAndTheCommandLineWins) {
+  const SceneFile file = loadSceneFile("small_box.yaml", {}, {"settings/small_box_fine.yaml"});
+  EXPECT_DOUBLE_EQ(file.run.scheme.h, 5e-5);
+  EXPECT_EQ(file.run.scheme.normal_law, NormalLaw::Pos);
+  EXPECT_EQ(file.spec.bodies.size(), 10u + 4u);
+  EXPECT_DOUBLE_EQ(file.spec.default_law.friction, 0.0);
+  EXPECT_DOUBLE_EQ(file.run.scheme.coulomb.tolerance, 1e-3);
+  EXPECT_EQ(file.run.scheme.coulomb.acceleration, NlgsAcceleration::Nncg);
+  // the fields the settings file leaves alone keep the scene's values
+  EXPECT_EQ(file.run.scheme.scheme, Scheme::CatchingUp);
+  EXPECT_DOUBLE_EQ(file.run.t_end, 0.02);
+
+  const SceneFile both =
+      loadSceneFile("small_box.yaml", {"time.step=2e-5"}, {"settings/small_box_fine.yaml"});
+  EXPECT_DOUBLE_EQ(both.run.scheme.h, 2e-5);
+  EXPECT_EQ(both.run.scheme.normal_law, NormalLaw::Pos);
+}
+
+TEST_F(InScenesFolder, EveryMalformedSettingsFileIsRejectedWithItsExactMessage) {
+  const int checked = expectEachRejectedWithItsMessage(
+      "settings/bad", [](const std::string& file) { loadSceneFile("small_box.yaml", {}, {file}); });
+  EXPECT_GE(checked, 7);
+  try {
+    loadSceneFile("small_box.yaml", {}, {"settings/none.yaml"});
+    ADD_FAILURE() << "a missing settings file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "settings/none.yaml: cannot open the file");
+  }
+}
+
+// The powder bed's faster setting is a settings file next to the scene: every entry it
+// holds must keep reaching the field the documentation says it sets.
+TEST(SettingsFile, PowderBedFastSettingIsWhatTheDocsMeasured) {
+  const std::string folder = std::string(SWEEP_SOURCE_DIR) + "/examples/powder_bed/";
+  const SceneFile file = loadSceneFile(folder + "powder_bed.yaml", {}, {folder + "fast.yaml"});
+  const SchemeSettings& s = file.run.scheme;
+  EXPECT_EQ(s.scheme, Scheme::MoreauJean);
+  EXPECT_EQ(s.normal_law, NormalLaw::Iqs);
+  EXPECT_DOUBLE_EQ(s.h, 1e-4);
+  EXPECT_TRUE(s.screening);
+  EXPECT_DOUBLE_EQ(s.coulomb.tolerance, 1e-2);
+  EXPECT_EQ(s.coulomb.residual_check_interval, 5);
+  EXPECT_DOUBLE_EQ(s.coulomb.relaxation, 0.9);
+  // the scene's own solver choice survives: the entries set fields, not the whole section
+  EXPECT_EQ(s.coulomb.acceleration, NlgsAcceleration::Nncg);
+  EXPECT_EQ(file.spec.detection.margin_rule, MarginRule::Relative);
+  EXPECT_DOUBLE_EQ(file.spec.detection.speed_factor, 1.25);
+  EXPECT_TRUE(s.compactSphereRows());
 }
 
 TEST(SceneSpec, PolygonAndSegmentInertiasMatchTheirClosedForms) {
