@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes the scene parser and the URDF importer with libFuzzer (clang), under AddressSanitizer
 # and UndefinedBehaviorSanitizer. Usage:
-#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]     (default: 60 s, scene and urdf)
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]     (default: 60 s, scene, settings, urdf)
 # The seed corpus is every scene and URDF of examples/ and tests/data/, plus the inputs that
 # once crashed Sweep (tests/fuzz/regressions/, replayed first). A crash leaves its input in
 # build-fuzz/crash-* and makes this script fail; add the input to tests/fuzz/regressions/.
@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(scene urdf)
+[ ${#targets[@]} -gt 0 ] || targets=(scene settings urdf)
 
 "./scripts/install-deps.sh"
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
@@ -22,14 +22,18 @@ for target in "${targets[@]}"; do
   corpus="build-fuzz/corpus/$target"
   mkdir -p "$corpus"
   case "$target" in
-    scene) find examples tests/data/scenes -name '*.yaml' -exec cp {} "$corpus/" \; ;;
+    # a scene file is a settings file too: its top-level keys are paths
+    scene | settings) find examples tests/data/scenes -name '*.yaml' -exec cp {} "$corpus/" \; ;;
     urdf) find examples tests/data -name '*.urdf' -exec cp {} "$corpus/" \; ;;
   esac
   echo "fuzz: $target for $seconds s"
-  # the regressions replay first: libFuzzer runs every given corpus before mutating
+  # the regressions replay first: libFuzzer runs every given corpus before mutating (a target
+  # that never broke has no folder, and libFuzzer refuses a folder that does not exist)
+  regressions=()
+  [ -d "tests/fuzz/regressions/$target" ] && regressions=("../tests/fuzz/regressions/$target")
   # the whole log is kept in build-fuzz/TARGET.log; its head and tail are shown
   (cd build-fuzz && "./tests/fuzz/${target}_fuzzer" "corpus/$target" \
-     "../tests/fuzz/regressions/$target" -max_total_time="$seconds" -max_len=8192 \
+     "${regressions[@]}" -max_total_time="$seconds" -max_len=8192 \
      -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 > "$target.log" 2>&1) || {
     # the report starts at a sanitizer's or libFuzzer's ==PID==ERROR line, a UBSan
     # "runtime error:" or a DEADLYSIGNAL line; a looser pattern once matched a harmless

@@ -176,7 +176,10 @@ FieldOverride parseOverride(const std::string& assignment) {
 }
 
 std::vector<FieldOverride> loadOverrideFile(const std::string& path) {
-  const YAML::Node root = loadYamlFile(path);
+  return overridesFromYaml(loadYamlFile(path), path);
+}
+
+std::vector<FieldOverride> overridesFromYaml(const YAML::Node& root, const std::string& path) {
   if (!root.IsMap())
     throw InputError(path + ": a settings file is a map of path: value entries (scheme.h: 1e-4)");
   std::vector<FieldOverride> entries;

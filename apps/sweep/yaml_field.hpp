@@ -81,6 +81,8 @@ FieldOverride parseOverride(const std::string& assignment);
 // in file order. InputError naming the file (and the entry) when it is missing, not a map,
 // or has an empty path.
 std::vector<FieldOverride> loadOverrideFile(const std::string& path);
+// The same from a parsed document; `path` names the file in messages.
+std::vector<FieldOverride> overridesFromYaml(const YAML::Node& root, const std::string& path);
 
 // Replaces the field in a document (the whole field: a map value replaces the section, as
 // writing it in the file would). InputError on a path through a non-map or to a missing
