@@ -1,5 +1,4 @@
 #pragma once
-#include <optional>
 // The two NSCD time-stepping schemes on one pipeline. Steps 1, 2, 4 and 6 are shared; steps
 // 3 and 5 differ (reference: ../shared/reference/schemes.md, docs/schemes.md).
 //
@@ -25,6 +24,7 @@
 //      the tangential part of the motion (cap 1500); in global mode the normal velocities of
 //      closed contacts are held at their 5a values by bilateral corrections.
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "contact/detection.hpp"

@@ -730,12 +730,11 @@ class SceneParser {
     if (f.has("compact_sphere_rows")) {
       // auto (the default): compact for scheme A, body form for B (time_stepper.hpp)
       const YamlField field = f["compact_sphere_rows"];
-      const std::string value = field.isScalar() ? field.text() : std::string();
-      if (value == "auto")
+      const std::optional<bool> flag = field.asBoolean();
+      if (flag)
+        s.compact_sphere_rows = flag;
+      else if (field.isScalar() && field.text() == "auto")
         s.compact_sphere_rows.reset();
-      else if (value == "true" || value == "false" || value == "yes" || value == "no" ||
-               value == "on" || value == "off")
-        s.compact_sphere_rows = field.boolean();
       else
         field.fail("must be auto, true or false");
     }

@@ -95,13 +95,19 @@ long YamlField::integer() const {
   return x;
 }
 
-bool YamlField::boolean() const {
+std::optional<bool> YamlField::asBoolean() const {
   if (node_.IsScalar()) {
     const std::string& s = node_.Scalar();
     if (s == "true" || s == "yes" || s == "on") return true;
     if (s == "false" || s == "no" || s == "off") return false;
   }
-  fail("must be true or false");
+  return std::nullopt;
+}
+
+bool YamlField::boolean() const {
+  const std::optional<bool> flag = asBoolean();
+  if (!flag) fail("must be true or false");
+  return *flag;
 }
 
 std::string YamlField::text() const {

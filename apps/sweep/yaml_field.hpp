@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <initializer_list>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,7 @@ class YamlField {
   double nonNegative() const;
   long integer() const;
   bool boolean() const;
+  std::optional<bool> asBoolean() const;  // the same without failing: nullopt if not a boolean
   std::string text() const;
   // `dimension` finite components; a 2D scene may give 2 (z = 0)
   Vector3 vector(int dimension) const;
