@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "framework/error.hpp"
+#include "integrators/convex_stages.hpp"
 #include "integrators/coulomb_local.hpp"
 #include "integrators/packed_rows.hpp"
 
@@ -41,6 +42,10 @@ const char* frictionThresholdName(FrictionThreshold threshold) {
 }
 const char* openContactsName(OpenContacts open) {
   return open == OpenContacts::Unilateral ? "unilateral" : "free";
+}
+
+const char* stageSolverName(StageSolver solver) {
+  return solver == StageSolver::Mprgp ? "mprgp" : "nlgs";
 }
 
 void NlgsSettings::validate(const std::string& owner) const {
@@ -715,6 +720,8 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
 
 NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings,
                            std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws) {
+  if (settings.solver == StageSolver::Mprgp)
+    return solveNormalStageMprgp(p, settings, lambda_N, v, ws);
   NlgsStats total;
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
   if (p.size() == 0) return total;
@@ -818,6 +825,8 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws,
                              std::vector<Vector2>* R) {
+  if (settings.solver == StageSolver::Mprgp)
+    return solveFrictionStageMpgp(p, settings, options, lambda_N, delta, lambda_T, v, ws, R);
   NlgsStats stats;
   const int n = p.size();
   const int dT = p.dimension - 1;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "integrators/contact_problem.hpp"
+#include "integrators/mprgp.hpp"
 
 namespace sweep {
 
@@ -35,8 +36,16 @@ enum class LocalSolver3d { AlartCurnier, Enumeration };
 enum class NlgsAcceleration { None, Nncg };
 const char* nlgsAccelerationName(NlgsAcceleration acceleration);
 
+// Solver of one of scheme B's stages: nonlinear Gauss-Seidel, or the stage solved as the
+// convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on stage 5a's bound
+// constraints, MPGP on stage 5b's friction discs, intervals, held and guarded rows. Scheme A's
+// coupled Coulomb problem is not convex and takes NLGS only.
+enum class StageSolver { Nlgs, Mprgp };
+const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp"
+
 struct NlgsSettings {
   int max_iterations = 3000;
+  StageSolver solver = StageSolver::Nlgs;
   // relative natural-map residual, checked once the relative impulse change is below it, and
   // every residual_check_interval sweeps (0: only then). In a hyperstatic pile the impulses
   // drift along a set of solutions long after the residual is met: on the powder heap the
@@ -79,6 +88,17 @@ struct NlgsWorkspace {
   VectorX v_before, v_direction;
   std::vector<int> island_dofs, dof_stamp;
   int stamp = 0;
+  // the convex stage solvers' (StageSolver::Mprgp): the program's variables and sets, and per
+  // row its variables (-1: none) and their scales
+  struct Convex {
+    MprgpWorkspace mprgp;
+    SeparableSet set;
+    std::vector<double> x;
+    std::vector<int> normal_var, tangent_var, rolling_var;
+    std::vector<double> normal_scale, rolling_scale, target;
+    std::vector<Matrix2> tangent_map;  // physical tangential impulse = tangent_map * x_T
+    VectorX v_normal;
+  } convex;
 };
 
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.

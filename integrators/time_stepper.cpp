@@ -34,6 +34,9 @@ void SchemeSettings::validate() const {
     throw InputError(out.str());
   }
   coulomb.validate("moreau_jean.solver");
+  if (coulomb.solver != StageSolver::Nlgs)
+    throw InputError(
+        "scheme.coulomb.solver must be nlgs: Jean-Moreau's coupled Coulomb problem is not convex");
   normal_stage.validate("catching_up.normal_stage");
   friction_stage.validate("catching_up.friction_stage");
   if (std::isnan(screening_gap)) throw InputError("scheme.screening_gap must be a number, got nan");

@@ -645,9 +645,19 @@ class SceneParser {
     }
   }
 
-  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s) {
-    f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation", "shuffle",
-                 "seed", "local_solver", "acceleration"});
+  // convex: a stage of scheme B, which may take the convex solver
+  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s, bool convex) {
+    f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
+                 "shuffle", "seed", "local_solver", "acceleration"});
+    const std::string solver = f.text("solver", stageSolverName(s.solver));
+    if (solver == "nlgs")
+      s.solver = StageSolver::Nlgs;
+    else if (solver == "mprgp" && convex)
+      s.solver = StageSolver::Mprgp;
+    else
+      f["solver"].fail(convex
+                           ? "must be nlgs or mprgp"
+                           : "must be nlgs (Jean-Moreau's coupled Coulomb problem is not convex)");
     const long cap = f.integer("max_iterations", s.max_iterations);
     if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
     s.max_iterations = static_cast<int>(cap);
@@ -738,10 +748,11 @@ class SceneParser {
       else
         field.fail("must be auto, true or false");
     }
-    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb);
-    if (f.has("normal_stage")) s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage);
+    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, false);
+    if (f.has("normal_stage"))
+      s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage, true);
     if (f.has("friction_stage"))
-      s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage);
+      s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage, true);
   }
 
   void parseTime(const YamlField& f) {
@@ -870,6 +881,7 @@ const char* shapeKeyword(ShapeType type) {
 
 void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "solver" << YAML::Value << stageSolverName(s.solver);
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
   out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
   out << YAML::Key << "residual_check_interval" << YAML::Value << s.residual_check_interval;

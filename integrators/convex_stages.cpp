@@ -1,0 +1,342 @@
+#include "integrators/convex_stages.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sweep {
+
+namespace {
+
+NlgsStats statsOf(const MprgpStats& solve, int rows) {
+  NlgsStats stats;
+  stats.iterations = solve.iterations;
+  stats.updates = static_cast<long>(solve.products) * rows;
+  stats.residual = solve.residual;
+  stats.status = solve.converged ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  return stats;
+}
+
+MprgpSettings mprgpSettings(const NlgsSettings& settings) {
+  MprgpSettings s;
+  s.max_iterations = settings.max_iterations;
+  s.tolerance = settings.tolerance;
+  return s;
+}
+
+// The 2D problems' packed rows (ContactProblem::rows2d), when every row has one: the same
+// sums as the generic accessors, read from one array.
+bool packed2d(const ContactProblem& p) {
+  return p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
+}
+// U_c (normal, tangent) at v, with or without the known part
+inline Vector2 packedVelocity2d(const ContactProblem& p, int c, const VectorX& v, bool known) {
+  const ContactProblem::PackedRow2d& r = p.rows2d[c];
+  Vector2 u = known ? r.known : Vector2::Zero();
+  for (int e = r.begin; e < r.end; ++e) {
+    const ContactProblem::PackedEntry2d& h = p.h2d[e];
+    u.x() += h.normal * v[h.dof];
+    u.y() += h.tangent * v[h.dof];
+  }
+  return u;
+}
+// z += M^-1 H_c (normal, tangent)
+inline void packedApply2d(const ContactProblem& p, int c, double normal, double tangent,
+                          VectorX& z) {
+  const ContactProblem::PackedRow2d& r = p.rows2d[c];
+  for (int e = r.minv_begin; e < r.minv_end; ++e) {
+    const ContactProblem::PackedEntry2d& m = p.minv2d[e];
+    z[m.dof] += m.normal * normal + m.tangent * tangent;
+  }
+}
+
+// Normal rows only: variable normal_var[c] (-1: none) is s_c lambda_c; the gradient is
+// (U_N(v) - target_c) / s_c.
+class NormalRows final : public QpOperator {
+ public:
+  NormalRows(const ContactProblem& p, const NlgsWorkspace::Convex& ws)
+      : p_(p), ws_(ws), packed_(packed2d(p)) {}
+  void toVelocity(const std::vector<double>& x, VectorX& z) const override {
+    z.setZero();
+    for (int c = 0; c < p_.size(); ++c) {
+      const int k = ws_.normal_var[c];
+      if (k < 0 || x[k] == 0.0) continue;
+      const double impulse = x[k] * ws_.normal_scale[c];
+      if (packed_)
+        packedApply2d(p_, c, impulse, 0.0, z);
+      else
+        p_.applyImpulse(c, Vector3(impulse, 0, 0), z);
+    }
+  }
+  void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
+    for (int c = 0; c < p_.size(); ++c) {
+      const int k = ws_.normal_var[c];
+      if (k < 0) continue;
+      if (packed_) {
+        const double u = packedVelocity2d(p_, c, v, affine).x();
+        y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u);
+        continue;
+      }
+      const double u = p_.localVelocity(c, v).x();
+      y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u - p_.known[c].x());
+    }
+  }
+
+ private:
+  const ContactProblem& p_;
+  const NlgsWorkspace::Convex& ws_;
+  bool packed_;
+};
+
+// Stage 5b's rows: normal correction, tangential impulse and rolling impulse of each contact
+// (see convex_stages.hpp).
+class FrictionRows final : public QpOperator {
+ public:
+  FrictionRows(const ContactProblem& p, const FrictionStageOptions& options,
+               const NlgsWorkspace& nlgs)
+      : p_(p),
+        options_(options),
+        nlgs_(nlgs),
+        ws_(nlgs.convex),
+        dT_(p.dimension - 1),
+        packed_(packed2d(p)) {}
+
+  void toVelocity(const std::vector<double>& x, VectorX& z) const override {
+    z.setZero();
+    for (int c = 0; c < p_.size(); ++c) {
+      Vector3 dP = Vector3::Zero();
+      if (ws_.normal_var[c] >= 0) dP.x() = x[ws_.normal_var[c]] * ws_.normal_scale[c];
+      const int t = ws_.tangent_var[c];
+      if (t >= 0) {
+        const Vector2 impulse = ws_.tangent_map[c] * Vector2(x[t], dT_ == 2 ? x[t + 1] : 0.0);
+        dP.y() = impulse.x();
+        dP.z() = dT_ == 2 ? impulse.y() : 0.0;
+        if (options_.tangents == TangentMode::Local) dP.x() -= nlgs_.coupling[c].dot(impulse);
+      }
+      if (packed_)
+        packedApply2d(p_, c, dP.x(), dP.y(), z);
+      else if (!dP.isZero(0.0))
+        p_.applyImpulse(c, dP, z);
+      const int r = ws_.rolling_var[c];
+      if (r >= 0) {
+        const double scale = ws_.rolling_scale[c];
+        p_.applyRolling(c, Vector2(x[r] * scale, dT_ == 2 ? x[r + 1] * scale : 0.0), z);
+      }
+    }
+  }
+
+  void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
+    for (int c = 0; c < p_.size(); ++c) {
+      const int n = ws_.normal_var[c], t = ws_.tangent_var[c], r = ws_.rolling_var[c];
+      if (n >= 0 || t >= 0) {
+        Vector3 u;
+        if (packed_) {
+          const Vector2 u2 = packedVelocity2d(p_, c, v, affine);
+          u = Vector3(u2.x(), u2.y(), 0.0);
+        } else {
+          u = p_.localVelocity(c, v);
+          if (!affine) u -= p_.known[c];
+        }
+        if (n >= 0) y[n] = ws_.normal_scale[c] * (affine ? u.x() - ws_.target[c] : u.x());
+        if (t >= 0) {
+          Vector2 w(u.y(), dT_ == 2 ? u.z() : 0.0);
+          if (affine) w -= nlgs_.offset[c];
+          if (options_.tangents == TangentMode::Local) w -= nlgs_.coupling[c] * u.x();
+          const Vector2 gradient = ws_.tangent_map[c].transpose() * w;
+          y[t] = gradient.x();
+          if (dT_ == 2) y[t + 1] = gradient.y();
+        }
+      }
+      if (r >= 0) {
+        Vector2 u = p_.rollingVelocity(c, v);
+        if (!affine) u -= p_.rolling_known[c];
+        y[r] = ws_.rolling_scale[c] * u.x();
+        if (dT_ == 2) y[r + 1] = ws_.rolling_scale[c] * u.y();
+      }
+    }
+  }
+
+ private:
+  const ContactProblem& p_;
+  const FrictionStageOptions& options_;
+  const NlgsWorkspace& nlgs_;
+  const NlgsWorkspace::Convex& ws_;
+  int dT_;
+  bool packed_;
+};
+
+void prepareRows(NlgsWorkspace::Convex& ws, int n) {
+  ws.set.clear();
+  ws.normal_var.assign(n, -1);
+  ws.tangent_var.assign(n, -1);
+  ws.rolling_var.assign(n, -1);
+  ws.normal_scale.assign(n, 0.0);
+  ws.rolling_scale.assign(n, 0.0);
+  ws.target.assign(n, 0.0);
+  ws.tangent_map.resize(n);
+}
+
+}  // namespace
+
+NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& settings,
+                                std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& nlgs) {
+  NlgsWorkspace::Convex& ws = nlgs.convex;
+  const int n = p.size();
+  if (n == 0) return NlgsStats{};
+  prepareRows(ws, n);
+  ws.x.clear();
+  for (int c = 0; c < n; ++c) {
+    const double s = std::sqrt(p.delassus[c](0, 0));
+    ws.normal_var[c] = ws.set.add(BlockSet::NonNegative, 1);
+    ws.normal_scale[c] = 1.0 / s;
+    ws.target[c] = -p.normal_bias[c];
+    ws.x.push_back(s * lambda_N[c]);
+  }
+  const NormalRows op(p, ws);
+  const MprgpStats solve = solveMprgp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
+  for (int c = 0; c < n; ++c) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
+  NlgsStats stats = statsOf(solve, n);
+  if (!v.allFinite()) stats.status = SolverStatus::Failed;
+  return stats;
+}
+
+NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& settings,
+                                 const FrictionStageOptions& options,
+                                 const std::vector<double>& lambda_N, std::vector<double>& delta,
+                                 std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& nlgs,
+                                 std::vector<Vector2>* R) {
+  NlgsWorkspace::Convex& ws = nlgs.convex;
+  const int n = p.size();
+  const int dT = p.dimension - 1;
+  NlgsStats total;
+  if (n == 0) return total;
+  const bool global = options.tangents == TangentMode::Global;
+  // thresholds, the held normal velocities and the per-contact blocks, as solveFrictionStage
+  for (int c = 0; c < n; ++c) {
+    const Matrix3& W = p.delassus[c];
+    Vector2 coupling = W.block<2, 1>(1, 0) / W(0, 0);
+    Matrix2 schur = W.block<2, 2>(1, 1) - W.block<2, 1>(1, 0) * W.block<1, 2>(0, 1) / W(0, 0);
+    if (p.dimension == 2) {
+      coupling.y() = 0.0;
+      schur(0, 1) = schur(1, 0) = 0.0;
+      schur(1, 1) = 1.0;
+    }
+    nlgs.coupling[c] = coupling;
+    nlgs.schur[c] = schur;
+    double S = p.friction[c] * lambda_N[c];
+    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
+      S *= std::sqrt(W(0, 0) / schur(0, 0));
+    nlgs.threshold[c] = S;
+    nlgs.held_normal[c] = p.localVelocity(c, v).x();
+  }
+  auto held = [&](int c) { return global && lambda_N[c] > 0.0; };
+  auto guarded = [&](int c) {
+    return global && options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);
+  };
+  auto rollingRow = [&](int c) {
+    return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0 && lambda_N[c] > 0.0;
+  };
+  bool any = false;
+  for (int c = 0; c < n; ++c) any = any || nlgs.threshold[c] > 0.0 || rollingRow(c);
+  if (!any) {
+    // nothing can move the velocities: no friction, no correction
+    std::fill(delta.begin(), delta.end(), 0.0);
+    std::fill(lambda_T.begin(), lambda_T.end(), Vector2::Zero());
+    if (R != nullptr) std::fill(R->begin(), R->end(), Vector2::Zero());
+    return total;
+  }
+
+  // v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1: conjugate gradients (every block free)
+  std::fill(nlgs.offset.begin(), nlgs.offset.end(), Vector2::Zero());
+  bool needs_projection = false;
+  for (int c = 0; c < n; ++c)
+    needs_projection = needs_projection || (lambda_N[c] > 0.0 && p.normal_bias[c] != 0.0);
+  if (global && needs_projection) {
+    prepareRows(ws, n);
+    ws.x.clear();
+    for (int c = 0; c < n; ++c) {
+      if (!(lambda_N[c] > 0.0)) continue;
+      ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
+      ws.normal_scale[c] = 1.0 / std::sqrt(p.delassus[c](0, 0));
+      ws.target[c] = nlgs.held_normal[c];
+      ws.x.push_back(0.0);
+    }
+    if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
+    ws.v_normal.setZero();
+    const NormalRows op(p, ws);
+    const MprgpStats projection =
+        solveMprgp(op, ws.set, mprgpSettings(settings), ws.x, ws.v_normal, ws.mprgp);
+    total.updates += static_cast<long>(projection.products) * n;
+    for (int c = 0; c < n; ++c) {
+      const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
+      nlgs.offset[c] = Vector2(u.y(), u.z());
+    }
+  }
+
+  // the program's blocks, each scaled to about a unit diagonal, and the warm start
+  prepareRows(ws, n);
+  ws.x.clear();
+  for (int c = 0; c < n; ++c) {
+    const Matrix3& W = p.delassus[c];
+    const double s_N = std::sqrt(W(0, 0));
+    if (held(c) || guarded(c)) {
+      // a held row's residual is measured against the normal impulse it carries (as NLGS)
+      const double carried = s_N * lambda_N[c];
+      ws.normal_var[c] =
+          ws.set.add(held(c) ? BlockSet::Free : BlockSet::NonNegative, 1, 0.0, carried * carried);
+      ws.normal_scale[c] = 1.0 / s_N;
+      ws.target[c] = held(c) ? nlgs.held_normal[c] : -p.normal_bias[c];
+      ws.x.push_back(held(c) ? s_N * delta[c] : std::max(s_N * delta[c], 0.0));
+    }
+    const double S = nlgs.threshold[c];
+    if (S > 0.0) {
+      const Matrix2 diagonal =
+          options.tangents == TangentMode::Local ? nlgs.schur[c] : Matrix2(W.block<2, 2>(1, 1));
+      double radius;
+      if (options.threshold == FrictionThreshold::Metric && p.dimension == 3) {
+        // the ellipse lambda^T W_TT lambda <= S^2 W_NN is the disc |z| <= S sqrt(W_NN) in
+        // z = L^T lambda, W_TT = L L^T
+        const Eigen::LLT<Matrix2> L(W.block<2, 2>(1, 1));
+        const Matrix2 Lt = L.matrixU();
+        ws.tangent_map[c] = Lt.inverse();
+        radius = S * s_N;
+      } else {
+        const double s_T = std::sqrt(p.dimension == 2 ? diagonal(0, 0) : 0.5 * diagonal.trace());
+        ws.tangent_map[c] = Matrix2::Identity() / s_T;
+        radius = S * s_T;
+      }
+      ws.tangent_var[c] = ws.set.add(BlockSet::Ball, dT, radius);
+      const Vector2 warm = ws.tangent_map[c].inverse() * lambda_T[c];
+      ws.x.push_back(warm.x());
+      if (dT == 2) ws.x.push_back(warm.y());
+    }
+    if (rollingRow(c)) {
+      const Matrix2& Wr = p.rolling_delassus[c];
+      const double s_R = std::sqrt(p.dimension == 2 ? Wr(0, 0) : 0.5 * Wr.trace());
+      ws.rolling_scale[c] = 1.0 / s_R;
+      ws.rolling_var[c] = ws.set.add(BlockSet::Ball, dT, p.rolling_bound[c] * lambda_N[c] * s_R);
+      ws.x.push_back(s_R * (*R)[c].x());
+      if (dT == 2) ws.x.push_back(s_R * (*R)[c].y());
+    }
+  }
+  const FrictionRows op(p, options, nlgs);
+  const MprgpStats solve = solveSeparableQp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
+  for (int c = 0; c < n; ++c) {
+    delta[c] = ws.normal_var[c] >= 0 ? ws.x[ws.normal_var[c]] * ws.normal_scale[c] : 0.0;
+    const int t = ws.tangent_var[c];
+    lambda_T[c] = t >= 0
+                      ? Vector2(ws.tangent_map[c] * Vector2(ws.x[t], dT == 2 ? ws.x[t + 1] : 0.0))
+                      : Vector2::Zero();
+    if (R != nullptr) {
+      const int r = ws.rolling_var[c];
+      (*R)[c] = r >= 0
+                    ? Vector2(ws.rolling_scale[c] * Vector2(ws.x[r], dT == 2 ? ws.x[r + 1] : 0.0))
+                    : Vector2::Zero();
+    }
+  }
+  NlgsStats stats = statsOf(solve, n);
+  stats.updates += total.updates;
+  if (!v.allFinite()) stats.status = SolverStatus::Failed;
+  return stats;
+}
+
+}  // namespace sweep

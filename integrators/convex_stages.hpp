@@ -1,0 +1,40 @@
+#pragma once
+// Scheme B's two stages solved as the convex quadratic programs they are (StageSolver::Mprgp),
+// by MPRGP / MPGP (integrators/mprgp.hpp) on the matrix-free Delassus operator. Same inputs,
+// outputs and meaning as solveNormalStage and solveFrictionStage (integrators/nlgs.hpp), which
+// call these when the stage's solver is mprgp.
+//
+// Stage 5a, the dual of min 1/2 |v - v_free|_M^2 subject to W_N^T v + bias >= 0 on the index
+// set, in the scaled normals Lambda_c = s_c lambda_c (s_c^2 = W_NN,c, unit diagonal):
+//   min 1/2 Lambda^T D Lambda + xi_0^T Lambda,  Lambda >= 0,
+//   D = S^-1 W_N^T M^-1 W_N S^-1,  xi_0 = S^-1 (W_N^T v_free + known + bias).
+//
+// Stage 5b with thresholds S_c = mu_c lambda_N,c frozen (reference 4.3; docs/schemes.md), per
+// contact the variables
+//   delta_c   normal correction: free on a held row (GLOBAL, lambda_N > 0), >= 0 on a guarded
+//             one (OpenContacts::Unilateral), absent otherwise;
+//   lambda_T  tangential impulse in the disc |lambda_T| <= S_c (2D: an interval), or the
+//             METRIC bound's ellipse mapped to a disc;
+//   R_c       rolling torque impulse, |R_c| <= mu_r R* lambda_N,c;
+// minimizing 1/2 x^T W x + x^T (H^T v1 + known - target), target = (held normal velocity or
+// -bias, the tangential velocity of v_N, 0): the KKT system whose block Gauss-Seidel is
+// solveFrictionStage's sweep. v_N, the M-projection of v1 on the closed normals, is the
+// solution of a consistent (possibly singular) linear system, solved by conjugate gradients:
+// MPRGP with every block free.
+#include <vector>
+
+#include "integrators/nlgs.hpp"
+
+namespace sweep {
+
+NlgsStats solveNormalStageMprgp(const ContactProblem& problem, const NlgsSettings& settings,
+                                std::vector<double>& lambda_N, VectorX& v,
+                                NlgsWorkspace& workspace);
+
+NlgsStats solveFrictionStageMpgp(const ContactProblem& problem, const NlgsSettings& settings,
+                                 const FrictionStageOptions& options,
+                                 const std::vector<double>& lambda_N, std::vector<double>& delta,
+                                 std::vector<Vector2>& lambda_T, VectorX& v,
+                                 NlgsWorkspace& workspace, std::vector<Vector2>* rolling = nullptr);
+
+}  // namespace sweep

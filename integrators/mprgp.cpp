@@ -1,0 +1,390 @@
+#include "integrators/mprgp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sweep {
+
+void SeparableSet::clear() {
+  first.clear();
+  size.clear();
+  set.clear();
+  radius.clear();
+  scale2.clear();
+  variables = 0;
+}
+
+int SeparableSet::add(BlockSet block_set, int block_size, double block_radius,
+                      double block_scale2) {
+  const int begin = variables;
+  first.push_back(begin);
+  size.push_back(static_cast<std::uint8_t>(block_size));
+  set.push_back(block_set);
+  radius.push_back(block_radius);
+  scale2.push_back(block_scale2);
+  variables += block_size;
+  return begin;
+}
+
+void MprgpWorkspace::prepare(int variables, int velocities) {
+  for (std::vector<double>* w : {&g, &p, &Ap, &phi, &beta, &x_half, &g_half, &x_trial, &g_trial})
+    w->resize(variables);
+  if (z.size() != velocities) {
+    z.resize(velocities);
+    z_trial.resize(velocities);
+  }
+}
+
+namespace {
+
+// a disc block this close to its radius (relative) is on the boundary: projections put it
+// there only up to round-off
+constexpr double kOnBoundary = 1e-12;
+
+BlockSet effectiveSet(const SeparableSet& s, int b) {
+  return s.set[b] == BlockSet::Ball && !(s.radius[b] > 0.0) ? BlockSet::Fixed : s.set[b];
+}
+
+void projectBlock(const SeparableSet& s, int b, double* x) {
+  const int n = s.size[b];
+  switch (effectiveSet(s, b)) {
+    case BlockSet::Fixed:
+      for (int i = 0; i < n; ++i) x[i] = 0.0;
+      return;
+    case BlockSet::Free:
+      return;
+    case BlockSet::NonNegative:
+      x[0] = std::max(x[0], 0.0);
+      return;
+    case BlockSet::Ball: {
+      const double r = s.radius[b];
+      if (n == 1) {
+        x[0] = std::clamp(x[0], -r, r);
+        return;
+      }
+      const double norm2 = x[0] * x[0] + x[1] * x[1];
+      if (norm2 > r * r) {
+        const double shrink = r / std::sqrt(norm2);
+        x[0] *= shrink;
+        x[1] *= shrink;
+      }
+      return;
+    }
+  }
+}
+
+void project(const SeparableSet& s, std::vector<double>& x) {
+  for (int b = 0; b < s.blocks(); ++b) projectBlock(s, b, x.data() + s.first[b]);
+}
+
+// phi: g on the blocks inside their set; beta: on the blocks on their boundary, the part of g
+// that does not point out of the set
+void split(const SeparableSet& s, const std::vector<double>& x, const std::vector<double>& g,
+           std::vector<double>& phi, std::vector<double>& beta, double& phi2, double& beta2) {
+  phi2 = beta2 = 0.0;
+  for (int b = 0; b < s.blocks(); ++b) {
+    const int f = s.first[b], n = s.size[b];
+    for (int i = 0; i < n; ++i) phi[f + i] = beta[f + i] = 0.0;
+    switch (effectiveSet(s, b)) {
+      case BlockSet::Fixed:
+        break;
+      case BlockSet::Free:
+        for (int i = 0; i < n; ++i) phi[f + i] = g[f + i];
+        break;
+      case BlockSet::NonNegative:
+        if (x[f] > 0.0)
+          phi[f] = g[f];
+        else
+          beta[f] = std::min(g[f], 0.0);
+        break;
+      case BlockSet::Ball: {
+        const double r = s.radius[b];
+        if (n == 1) {
+          if (std::abs(x[f]) < r)
+            phi[f] = g[f];
+          else
+            beta[f] = x[f] > 0.0 ? std::max(g[f], 0.0) : std::min(g[f], 0.0);
+          break;
+        }
+        const double norm2 = x[f] * x[f] + x[f + 1] * x[f + 1];
+        if (norm2 < r * r * (1.0 - kOnBoundary)) {
+          phi[f] = g[f];
+          phi[f + 1] = g[f + 1];
+          break;
+        }
+        const double norm = std::sqrt(norm2);
+        const double nx = x[f] / norm, ny = x[f + 1] / norm;
+        const double outward = std::min(g[f] * nx + g[f + 1] * ny, 0.0);
+        beta[f] = g[f] - outward * nx;
+        beta[f + 1] = g[f + 1] - outward * ny;
+        break;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      phi2 += phi[f + i] * phi[f + i];
+      beta2 += beta[f + i] * beta[f + i];
+    }
+  }
+}
+
+// the largest alpha >= 0 with x - alpha p in the set
+double maxFeasibleStep(const SeparableSet& s, const std::vector<double>& x,
+                       const std::vector<double>& p) {
+  double alpha = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < s.blocks(); ++b) {
+    const int f = s.first[b];
+    switch (effectiveSet(s, b)) {
+      case BlockSet::Fixed:
+      case BlockSet::Free:
+        break;
+      case BlockSet::NonNegative:
+        if (p[f] > 0.0) alpha = std::min(alpha, std::max(x[f], 0.0) / p[f]);
+        break;
+      case BlockSet::Ball: {
+        const double r = s.radius[b];
+        if (s.size[b] == 1) {
+          if (p[f] > 0.0) alpha = std::min(alpha, std::max(x[f] + r, 0.0) / p[f]);
+          if (p[f] < 0.0) alpha = std::min(alpha, std::min(x[f] - r, 0.0) / p[f]);
+          break;
+        }
+        const double a = p[f] * p[f] + p[f + 1] * p[f + 1];
+        if (!(a > 0.0)) break;
+        const double xp = x[f] * p[f] + x[f + 1] * p[f + 1];
+        const double c = std::min(x[f] * x[f] + x[f + 1] * x[f + 1] - r * r, 0.0);
+        alpha = std::min(alpha, (xp + std::sqrt(xp * xp - a * c)) / a);
+        break;
+      }
+    }
+  }
+  return alpha;
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
+  return sum;
+}
+
+bool anyNonZero(const std::vector<double>& x) {
+  for (double value : x)
+    if (value != 0.0) return true;
+  return false;
+}
+
+}  // namespace
+
+double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
+                       const std::vector<double>& g) {
+  double f2 = 0.0, scale2 = 0.0;
+  for (int b = 0; b < s.blocks(); ++b) {
+    if (effectiveSet(s, b) == BlockSet::Fixed) continue;
+    const int f = s.first[b], n = s.size[b];
+    double y[2] = {0.0, 0.0};
+    double x2 = 0.0, g2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+      y[i] = x[f + i] - g[f + i];
+      x2 += x[f + i] * x[f + i];
+      g2 += g[f + i] * g[f + i];
+    }
+    projectBlock(s, b, y);
+    for (int i = 0; i < n; ++i) f2 += (x[f + i] - y[i]) * (x[f + i] - y[i]);
+    scale2 += std::max(x2, g2) + s.scale2[b];
+  }
+  return scale2 > 0.0 ? std::sqrt(f2 / scale2) : std::sqrt(f2);
+}
+
+MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const MprgpSettings& settings,
+                      std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
+  MprgpStats stats;
+  const int n = set.variables;
+  x.resize(n);
+  ws.prepare(n, static_cast<int>(v.size()));
+  std::vector<double>&g = ws.g, &p = ws.p, &Ap = ws.Ap, &phi = ws.phi, &beta = ws.beta;
+  project(set, x);
+  if (anyNonZero(x)) {
+    op.toVelocity(x, ws.z);
+    v += ws.z;
+  }
+  op.toGradient(v, true, g);
+  stats.products = 1;
+  double phi2 = 0.0, beta2 = 0.0;
+  split(set, x, g, phi, beta, phi2, beta2);
+  p = phi;
+  double rayleigh = 1.0;  // largest p^T A p / p^T p seen (the scaled diagonal is about 1)
+  double alpha_bar = 1.9 / rayleigh;
+  const double gamma2 = settings.gamma * settings.gamma;
+
+  // x_trial = P(from - step * direction) when it lowers f against (from, g_from); otherwise the
+  // step is halved until it does (an expansion's alpha_bar with it, for the steps after).
+  // Leaves x, g, v at the new point. The change of f is g_from^T dx + 1/2 dx^T A dx with A dx
+  // from a linear product: a difference of gradients evaluated from v would cancel digits.
+  auto projectedStep = [&](const std::vector<double>& from, const std::vector<double>& g_from,
+                           const std::vector<double>& direction, double step, bool expansion) {
+    for (int attempt = 0;; ++attempt) {
+      for (int i = 0; i < n; ++i) ws.x_trial[i] = from[i] - step * direction[i];
+      project(set, ws.x_trial);
+      // dx, in x_trial's slot until x_trial is rebuilt as from + dx
+      for (int i = 0; i < n; ++i) ws.x_trial[i] -= from[i];
+      op.toVelocity(ws.x_trial, ws.z_trial);
+      op.toGradient(ws.z_trial, false, ws.g_trial);
+      ++stats.products;
+      double linear = 0.0, curvature = 0.0;
+      for (int i = 0; i < n; ++i) {
+        linear += g_from[i] * ws.x_trial[i];
+        curvature += ws.x_trial[i] * ws.g_trial[i];
+      }
+      if (linear + 0.5 * curvature <= 0.0 || attempt >= 60) {
+        for (int i = 0; i < n; ++i) {
+          ws.x_trial[i] += from[i];
+          ws.g_trial[i] += g_from[i];
+        }
+        x.swap(ws.x_trial);
+        g.swap(ws.g_trial);
+        v += ws.z_trial;
+        return;
+      }
+      step *= 0.5;
+      if (expansion) alpha_bar = step;
+    }
+  };
+
+  for (int it = 0;; ++it) {
+    stats.residual = naturalResidual(set, x, g);
+    if (stats.residual < settings.tolerance) {
+      stats.converged = true;
+      break;
+    }
+    if (it == settings.max_iterations) break;
+    stats.iterations = it + 1;
+
+    if (beta2 <= gamma2 * phi2) {
+      op.toVelocity(p, ws.z);
+      op.toGradient(ws.z, false, Ap);
+      ++stats.products;
+      const double pAp = dot(p, Ap), pp = dot(p, p);
+      if (pp > 0.0 && pAp > 0.0 && pAp > rayleigh * pp) {
+        rayleigh = pAp / pp;
+        alpha_bar = std::min(alpha_bar, 1.9 / rayleigh);
+      }
+      const double feasible = maxFeasibleStep(set, x, p);
+      const double cg = pAp > 1e-300 ? dot(g, p) / pAp : std::numeric_limits<double>::infinity();
+      if (cg <= feasible) {
+        for (int i = 0; i < n; ++i) {
+          x[i] -= cg * p[i];
+          g[i] -= cg * Ap[i];
+        }
+        v -= cg * ws.z;
+        split(set, x, g, phi, beta, phi2, beta2);
+        const double conjugate = dot(phi, Ap) / pAp;
+        for (int i = 0; i < n; ++i) p[i] = phi[i] - conjugate * p[i];
+        ++stats.cg_steps;
+        continue;
+      }
+      // expansion: the largest feasible step, then a projected free-gradient step
+      const double step = std::isfinite(feasible) ? feasible : 0.0;
+      for (int i = 0; i < n; ++i) {
+        ws.x_half[i] = x[i] - step * p[i];
+        ws.g_half[i] = g[i] - step * Ap[i];
+      }
+      project(set, ws.x_half);
+      v -= step * ws.z;
+      split(set, ws.x_half, ws.g_half, phi, beta, phi2, beta2);
+      projectedStep(ws.x_half, ws.g_half, phi, alpha_bar, true);
+      ++stats.expansions;
+    } else {
+      // proportioning: exact line search along -beta, projected
+      op.toVelocity(beta, ws.z);
+      op.toGradient(ws.z, false, Ap);
+      ++stats.products;
+      const double bAb = dot(beta, Ap);
+      const double step = bAb > 1e-300 ? dot(g, beta) / bAb : alpha_bar;
+      ws.x_half = x;
+      ws.g_half = g;
+      projectedStep(ws.x_half, ws.g_half, beta, step, false);
+      ++stats.proportionings;
+    }
+    split(set, x, g, phi, beta, phi2, beta2);
+    p = phi;
+  }
+  return stats;
+}
+
+MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpSettings& settings,
+                     std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
+  MprgpStats stats;
+  const int n = set.variables;
+  x.resize(n);
+  ws.prepare(n, static_cast<int>(v.size()));
+  // x, g, v: the iterate; y (x_half), g_y (g_half), v_y (z_trial): the extrapolated point
+  std::vector<double>&g = ws.g, &y = ws.x_half, &g_y = ws.g_half, &d = ws.p, &Ad = ws.Ap;
+  VectorX& v_y = ws.z_trial;
+  project(set, x);
+  if (anyNonZero(x)) {
+    op.toVelocity(x, ws.z);
+    v += ws.z;
+  }
+  op.toGradient(v, true, g);
+  stats.products = 1;
+  y = x;
+  g_y = g;
+  v_y = v;
+  double L = 1.0;  // Lipschitz constant of the gradient: about 1 for a unit diagonal
+  double t = 1.0;
+  for (int it = 0;; ++it) {
+    stats.residual = naturalResidual(set, x, g);
+    if (stats.residual < settings.tolerance) {
+      stats.converged = true;
+      break;
+    }
+    if (it == settings.max_iterations) break;
+    stats.iterations = it + 1;
+    // d = P(y - g_y / L) - y, with L raised until the quadratic model majorizes f
+    double dAd = 0.0, dd = 0.0;
+    for (int attempt = 0;; ++attempt) {
+      for (int i = 0; i < n; ++i) d[i] = y[i] - g_y[i] / L;
+      project(set, d);
+      for (int i = 0; i < n; ++i) d[i] -= y[i];
+      op.toVelocity(d, ws.z);
+      op.toGradient(ws.z, false, Ad);
+      ++stats.products;
+      dAd = dot(d, Ad);
+      dd = dot(d, d);
+      if (dAd <= L * dd * (1.0 + 1e-12) || attempt >= 60) break;
+      L = std::max(2.0 * L, dAd / dd);
+    }
+    // x_new = y + d; restart the momentum when it points uphill (O'Donoghue & Candes 2015)
+    double uphill = 0.0;
+    for (int i = 0; i < n; ++i) uphill += g_y[i] * (y[i] + d[i] - x[i]);
+    const bool restart = uphill > 0.0;
+    const double t_next = restart ? 1.0 : 0.5 * (1.0 + std::sqrt(1.0 + 4.0 * t * t));
+    const double momentum = restart ? 0.0 : (t - 1.0) / t_next;
+    t = t_next;
+    for (int i = 0; i < n; ++i) {
+      const double x_new = y[i] + d[i], g_new = g_y[i] + Ad[i];
+      y[i] = x_new + momentum * (x_new - x[i]);
+      g_y[i] = g_new + momentum * (g_new - g[i]);
+      x[i] = x_new;
+      g[i] = g_new;
+    }
+    v_y += ws.z;  // v at y + d = x_new
+    // v_y = v_new + momentum (v_new - v), then v = v_new
+    ws.z = v_y - v;
+    v = v_y;
+    v_y += momentum * ws.z;
+    L *= 0.9;  // let the step grow back where the operator is milder
+    ++stats.cg_steps;
+  }
+  return stats;
+}
+
+MprgpStats solveSeparableQp(const QpOperator& op, const SeparableSet& set,
+                            const MprgpSettings& settings, std::vector<double>& x, VectorX& v,
+                            MprgpWorkspace& ws) {
+  for (int b = 0; b < set.blocks(); ++b)
+    if (set.size[b] == 2 && effectiveSet(set, b) == BlockSet::Ball)
+      return solveApgd(op, set, settings, x, v, ws);
+  return solveMprgp(op, set, settings, x, v, ws);
+}
+
+}  // namespace sweep
