@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "integrators/packed_rows.hpp"
+
 namespace sweep {
 
 namespace {
@@ -49,20 +51,28 @@ inline void packedApply2d(const ContactProblem& p, int c, double normal, double 
   }
 }
 
+// The 3D problems' packed rows (ContactProblem::rows3d, entries or body form), when every row
+// has one; compact sphere rows take the generic accessors.
+bool packed3d(const ContactProblem& p) {
+  return p.packed3dComplete() && p.spheres3d.empty();
+}
+
 // Normal rows only: variable normal_var[c] (-1: none) is s_c lambda_c; the gradient is
 // (U_N(v) - target_c) / s_c.
 class NormalRows final : public QpOperator {
  public:
   NormalRows(const ContactProblem& p, const NlgsWorkspace::Convex& ws)
-      : p_(p), ws_(ws), packed_(packed2d(p)) {}
+      : p_(p), ws_(ws), packed_(packed2d(p)), packed3d_(packed3d(p)), rows_(p) {}
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
-    z.setZero();
+    clearVelocities(&ws_.dofs, z);
     for (int c = 0; c < p_.size(); ++c) {
       const int k = ws_.normal_var[c];
       if (k < 0 || x[k] == 0.0) continue;
       const double impulse = x[k] * ws_.normal_scale[c];
       if (packed_)
         packedApply2d(p_, c, impulse, 0.0, z);
+      else if (packed3d_)
+        applyPacked3d(rows_.rows[c], rows_, Vector3(impulse, 0, 0), Vector2::Zero(), z);
       else
         p_.applyImpulse(c, Vector3(impulse, 0, 0), z);
     }
@@ -76,15 +86,23 @@ class NormalRows final : public QpOperator {
         y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u);
         continue;
       }
+      if (packed3d_) {
+        const ContactProblem::PackedRow3d& r = rows_.rows[c];
+        const double u = packedNormalVelocity3d(r, rows_, v);
+        y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u - r.known.x());
+        continue;
+      }
       const double u = p_.localVelocity(c, v).x();
       y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u - p_.known[c].x());
     }
   }
+  const std::vector<int>* dofs() const override { return &ws_.dofs; }
 
  private:
   const ContactProblem& p_;
   const NlgsWorkspace::Convex& ws_;
-  bool packed_;
+  bool packed_, packed3d_;
+  PackedRows3d rows_;
 };
 
 // Stage 5b's rows: normal correction, tangential impulse and rolling impulse of each contact
@@ -98,10 +116,12 @@ class FrictionRows final : public QpOperator {
         nlgs_(nlgs),
         ws_(nlgs.convex),
         dT_(p.dimension - 1),
-        packed_(packed2d(p)) {}
+        packed_(packed2d(p)),
+        packed3d_(packed3d(p)),
+        rows_(p) {}
 
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
-    z.setZero();
+    clearVelocities(&ws_.dofs, z);
     for (int c = 0; c < p_.size(); ++c) {
       Vector3 dP = Vector3::Zero();
       if (ws_.normal_var[c] >= 0) dP.x() = x[ws_.normal_var[c]] * ws_.normal_scale[c];
@@ -112,14 +132,19 @@ class FrictionRows final : public QpOperator {
         dP.z() = dT_ == 2 ? impulse.y() : 0.0;
         if (options_.tangents == TangentMode::Local) dP.x() -= nlgs_.coupling[c].dot(impulse);
       }
-      if (packed_)
-        packedApply2d(p_, c, dP.x(), dP.y(), z);
-      else if (!dP.isZero(0.0))
-        p_.applyImpulse(c, dP, z);
+      Vector2 dR = Vector2::Zero();
       const int r = ws_.rolling_var[c];
       if (r >= 0) {
         const double scale = ws_.rolling_scale[c];
-        p_.applyRolling(c, Vector2(x[r] * scale, dT_ == 2 ? x[r + 1] * scale : 0.0), z);
+        dR = Vector2(x[r] * scale, dT_ == 2 ? x[r + 1] * scale : 0.0);
+      }
+      if (packed_) {
+        packedApply2d(p_, c, dP.x(), dP.y(), z);
+      } else if (packed3d_) {
+        if (!dP.isZero(0.0) || !dR.isZero(0.0)) applyPacked3d(rows_.rows[c], rows_, dP, dR, z);
+      } else {
+        if (!dP.isZero(0.0)) p_.applyImpulse(c, dP, z);
+        if (r >= 0) p_.applyRolling(c, dR, z);
       }
     }
   }
@@ -127,33 +152,43 @@ class FrictionRows final : public QpOperator {
   void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
     for (int c = 0; c < p_.size(); ++c) {
       const int n = ws_.normal_var[c], t = ws_.tangent_var[c], r = ws_.rolling_var[c];
-      if (n >= 0 || t >= 0) {
-        Vector3 u;
-        if (packed_) {
-          const Vector2 u2 = packedVelocity2d(p_, c, v, affine);
-          u = Vector3(u2.x(), u2.y(), 0.0);
-        } else {
-          u = p_.localVelocity(c, v);
-          if (!affine) u -= p_.known[c];
+      if (n < 0 && t < 0 && r < 0) continue;
+      Vector3 u;
+      Vector2 u_rolling = Vector2::Zero();
+      if (packed_) {
+        const Vector2 u2 = packedVelocity2d(p_, c, v, affine);
+        u = Vector3(u2.x(), u2.y(), 0.0);
+      } else if (packed3d_) {
+        const ContactProblem::PackedRow3d& row = rows_.rows[c];
+        packedVelocity3d(row, rows_, v, u, u_rolling);
+        if (!affine) {
+          u -= row.known;
+          u_rolling -= row.rolling_known;
         }
-        if (n >= 0) y[n] = ws_.normal_scale[c] * (affine ? u.x() - ws_.target[c] : u.x());
-        if (t >= 0) {
-          Vector2 w(u.y(), dT_ == 2 ? u.z() : 0.0);
-          if (affine) w -= nlgs_.offset[c];
-          if (options_.tangents == TangentMode::Local) w -= nlgs_.coupling[c] * u.x();
-          const Vector2 gradient = ws_.tangent_map[c].transpose() * w;
-          y[t] = gradient.x();
-          if (dT_ == 2) y[t + 1] = gradient.y();
+      } else {
+        u = p_.localVelocity(c, v);
+        if (!affine) u -= p_.known[c];
+        if (r >= 0) {
+          u_rolling = p_.rollingVelocity(c, v);
+          if (!affine) u_rolling -= p_.rolling_known[c];
         }
       }
+      if (n >= 0) y[n] = ws_.normal_scale[c] * (affine ? u.x() - ws_.target[c] : u.x());
+      if (t >= 0) {
+        Vector2 w(u.y(), dT_ == 2 ? u.z() : 0.0);
+        if (affine) w -= nlgs_.offset[c];
+        if (options_.tangents == TangentMode::Local) w -= nlgs_.coupling[c] * u.x();
+        const Vector2 gradient = ws_.tangent_map[c].transpose() * w;
+        y[t] = gradient.x();
+        if (dT_ == 2) y[t + 1] = gradient.y();
+      }
       if (r >= 0) {
-        Vector2 u = p_.rollingVelocity(c, v);
-        if (!affine) u -= p_.rolling_known[c];
-        y[r] = ws_.rolling_scale[c] * u.x();
-        if (dT_ == 2) y[r + 1] = ws_.rolling_scale[c] * u.y();
+        y[r] = ws_.rolling_scale[c] * u_rolling.x();
+        if (dT_ == 2) y[r + 1] = ws_.rolling_scale[c] * u_rolling.y();
       }
     }
   }
+  const std::vector<int>* dofs() const override { return &ws_.dofs; }
 
  private:
   const ContactProblem& p_;
@@ -161,8 +196,29 @@ class FrictionRows final : public QpOperator {
   const NlgsWorkspace& nlgs_;
   const NlgsWorkspace::Convex& ws_;
   int dT_;
-  bool packed_;
+  bool packed_, packed3d_;
+  PackedRows3d rows_;
 };
+
+// The velocities the rows reach (M^-1 H's support holds H's: a row's components), in order.
+void collectDofs(const ContactProblem& p, int nv, NlgsWorkspace::Convex& ws) {
+  if (static_cast<int>(ws.dof_stamp.size()) != nv) {
+    ws.dof_stamp.assign(nv, 0);
+    ws.stamp = 0;
+  }
+  if (++ws.stamp == 0) {  // wrapped: clear the marks once
+    std::fill(ws.dof_stamp.begin(), ws.dof_stamp.end(), 0);
+    ws.stamp = 1;
+  }
+  ws.dofs.clear();
+  for (int c = 0; c < p.size(); ++c)
+    p.forEachMovedDof(c, [&](int k) {
+      if (ws.dof_stamp[k] == ws.stamp) return;
+      ws.dof_stamp[k] = ws.stamp;
+      ws.dofs.push_back(k);
+    });
+  std::sort(ws.dofs.begin(), ws.dofs.end());
+}
 
 void prepareRows(NlgsWorkspace::Convex& ws, int n) {
   ws.set.clear();
@@ -182,6 +238,7 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
   NlgsWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
   if (n == 0) return NlgsStats{};
+  collectDofs(p, static_cast<int>(v.size()), ws);
   prepareRows(ws, n);
   ws.x.clear();
   for (int c = 0; c < n; ++c) {
@@ -209,6 +266,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   const int dT = p.dimension - 1;
   NlgsStats total;
   if (n == 0) return total;
+  collectDofs(p, static_cast<int>(v.size()), ws);
   const bool global = options.tangents == TangentMode::Global;
   // thresholds, the held normal velocities and the per-contact blocks, as solveFrictionStage
   for (int c = 0; c < n; ++c) {

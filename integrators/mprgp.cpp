@@ -27,6 +27,14 @@ int SeparableSet::add(BlockSet block_set, int block_size, double block_radius,
   return begin;
 }
 
+void clearVelocities(const std::vector<int>* dofs, VectorX& z) {
+  if (dofs == nullptr) {
+    z.setZero();
+    return;
+  }
+  for (int i : *dofs) z[i] = 0.0;
+}
+
 void MprgpWorkspace::prepare(int variables, int velocities) {
   for (std::vector<double>* w : {&g, &p, &Ap, &phi, &beta, &x_half, &g_half, &x_trial, &g_trial})
     w->resize(variables);
@@ -41,6 +49,9 @@ namespace {
 // a disc block this close to its radius (relative) is on the boundary: projections put it
 // there only up to round-off
 constexpr double kOnBoundary = 1e-12;
+// curvature p^T A p / p^T p below this fraction of the largest seen: a direction in the
+// numerical null space of A
+constexpr double kFlat = 1e-9;
 
 BlockSet effectiveSet(const SeparableSet& s, int b) {
   return s.set[b] == BlockSet::Ball && !(s.radius[b] > 0.0) ? BlockSet::Fixed : s.set[b];
@@ -223,6 +234,15 @@ double dot(const std::vector<double>& a, const std::vector<double>& b) {
   return sum;
 }
 
+// v += a z over dofs (all when null)
+void addScaled(const std::vector<int>* dofs, double a, const VectorX& z, VectorX& v) {
+  if (dofs == nullptr) {
+    v += a * z;
+    return;
+  }
+  for (int i : *dofs) v[i] += a * z[i];
+}
+
 bool anyNonZero(const std::vector<double>& x) {
   for (double value : x)
     if (value != 0.0) return true;
@@ -261,7 +281,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
   project(set, x);
   if (anyNonZero(x)) {
     op.toVelocity(x, ws.z);
-    v += ws.z;
+    addScaled(op.dofs(), 1.0, ws.z, v);
   }
   op.toGradient(v, true, g);
   stats.products = 1;
@@ -297,7 +317,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
         }
         x.swap(ws.x_trial);
         g.swap(ws.g_trial);
-        v += ws.z_trial;
+        addScaled(op.dofs(), 1.0, ws.z_trial, v);
         return;
       }
       step *= 0.5;
@@ -307,8 +327,12 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
 
   for (int it = 0;; ++it) {
     stats.residual = at.residual;
-    if (stats.residual < settings.tolerance) {
-      stats.converged = true;
+    // at least one iteration from a warm start, as a Gauss-Seidel solve takes one sweep: the
+    // warm start's error, below the tolerance, would otherwise stay in every step of a body at
+    // rest and add up (a block sticking on an incline crept 2.7e-6 m in 10^5 steps)
+    const bool exact = at.phi2 == 0.0 && at.beta2 == 0.0;
+    if (stats.residual < settings.tolerance && (it > 0 || exact)) {
+      stats.converged = !stats.inconsistent;
       break;
     }
     if (it == settings.max_iterations) break;
@@ -322,14 +346,25 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
         rayleigh = pAp / pp;
         alpha_bar = std::min(alpha_bar, 1.9 / rayleigh);
       }
-      const double feasible = maxFeasibleStep(set, x, p);
-      const double cg = pAp > 1e-300 ? dot(g, p) / pAp : std::numeric_limits<double>::infinity();
+      // A direction of (numerically) no curvature: on a consistent program the gradient has no
+      // part along it, on an inconsistent one (no velocity meets every constraint: a driven
+      // body pushing into a jammed packing) the line search would run off to a huge impulse
+      // that round-off turns into huge velocities. No CG step along it: the bounded projected
+      // step of the expansion instead.
+      const bool flat = !(pAp > kFlat * rayleigh * pp);
+      // f falls without bound along a flat direction the gradient has a part along: the
+      // program has no solution. The solve goes on with bounded steps (as Gauss-Seidel's
+      // sweeps do) and is reported unconverged, whatever its relative residual, which a
+      // growing impulse drives down.
+      if (flat && std::abs(dot(g, p)) > 1e-6 * std::sqrt(dot(g, g) * pp)) stats.inconsistent = true;
+      const double feasible = flat ? 0.0 : maxFeasibleStep(set, x, p);
+      const double cg = flat ? std::numeric_limits<double>::infinity() : dot(g, p) / pAp;
       if (cg <= feasible) {
         for (int i = 0; i < n; ++i) {
           x[i] -= cg * p[i];
           g[i] -= cg * Ap[i];
         }
-        v -= cg * ws.z;
+        addScaled(op.dofs(), -cg, ws.z, v);
         at = split(set, x, g, phi, beta);
         const double conjugate = dot(phi, Ap) / pAp;
         for (int i = 0; i < n; ++i) p[i] = phi[i] - conjugate * p[i];
@@ -343,7 +378,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
         ws.g_half[i] = g[i] - step * Ap[i];
       }
       project(set, ws.x_half);
-      v -= step * ws.z;
+      addScaled(op.dofs(), -step, ws.z, v);
       split(set, ws.x_half, ws.g_half, phi, beta);
       projectedStep(ws.x_half, ws.g_half, phi, alpha_bar, true);
       ++stats.expansions;
@@ -353,7 +388,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       op.toGradient(ws.z, false, Ap);
       ++stats.products;
       const double bAb = dot(beta, Ap);
-      const double step = bAb > 1e-300 ? dot(g, beta) / bAb : alpha_bar;
+      const double step = bAb > kFlat * rayleigh * at.beta2 ? dot(g, beta) / bAb : alpha_bar;
       ws.x_half = x;
       ws.g_half = g;
       projectedStep(ws.x_half, ws.g_half, beta, step, false);
@@ -377,7 +412,7 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
   project(set, x);
   if (anyNonZero(x)) {
     op.toVelocity(x, ws.z);
-    v += ws.z;
+    addScaled(op.dofs(), 1.0, ws.z, v);
   }
   op.toGradient(v, true, g);
   stats.products = 1;
@@ -388,7 +423,7 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
   double t = 1.0;
   for (int it = 0;; ++it) {
     stats.residual = naturalResidual(set, x, g);
-    if (stats.residual < settings.tolerance) {
+    if (stats.residual < settings.tolerance && (it > 0 || stats.residual == 0.0)) {  // as MPRGP
       stats.converged = true;
       break;
     }
@@ -422,11 +457,17 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
       x[i] = x_new;
       g[i] = g_new;
     }
-    v_y += ws.z;  // v at y + d = x_new
-    // v_y = v_new + momentum (v_new - v), then v = v_new
-    ws.z = v_y - v;
-    v = v_y;
-    v_y += momentum * ws.z;
+    // v_y + z is v at y + d = x_new; then v_y = v_new + momentum (v_new - v) and v = v_new
+    const auto extrapolate = [&](int i) {
+      const double v_new = v_y[i] + ws.z[i];
+      v_y[i] = v_new + momentum * (v_new - v[i]);
+      v[i] = v_new;
+    };
+    if (const std::vector<int>* dofs = op.dofs()) {
+      for (int i : *dofs) extrapolate(i);
+    } else {
+      for (Eigen::Index i = 0; i < v.size(); ++i) extrapolate(static_cast<int>(i));
+    }
     L *= 0.9;  // let the step grow back where the operator is milder
     ++stats.cg_steps;
   }

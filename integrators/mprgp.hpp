@@ -63,7 +63,14 @@ class QpOperator {
   virtual void toVelocity(const std::vector<double>& x, VectorX& z) const = 0;
   // y = E^T (H^T v + known) - target (affine), or E^T H^T v (linear)
   virtual void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const = 0;
+  // the velocities M^-1 H E reaches (null: all of them): the solvers' vector operations on
+  // velocities run over these only, where a powder bed's few hundred contacts would otherwise
+  // pay for its 21 000 velocities at every iteration
+  virtual const std::vector<int>* dofs() const { return nullptr; }
 };
+
+// z = 0 over dofs (all of z when null)
+void clearVelocities(const std::vector<int>* dofs, VectorX& z);
 
 struct MprgpSettings {
   int max_iterations = 1500;
@@ -77,6 +84,7 @@ struct MprgpStats {
   int cg_steps = 0, expansions = 0, proportionings = 0;
   double residual = 0.0;
   bool converged = false;
+  bool inconsistent = false;  // unbounded along a null direction of A: no solution exists
 };
 
 struct MprgpWorkspace {

@@ -98,6 +98,9 @@ struct NlgsWorkspace {
     std::vector<double> normal_scale, rolling_scale, target;
     std::vector<Matrix2> tangent_map;  // physical tangential impulse = tangent_map * x_T
     VectorX v_normal;
+    std::vector<int> dofs;  // the velocities the rows reach (QpOperator::dofs)
+    std::vector<int> dof_stamp;
+    int stamp = 0;
   } convex;
 };
 

@@ -41,10 +41,11 @@ struct SchemeSettings {
   Scheme scheme = Scheme::MoreauJean;
   double h = 1e-4;
   NormalLaw normal_law = NormalLaw::Vel;
-  NlgsSettings coulomb{3000};         // scheme A
-  NlgsSettings normal_stage{1500};    // scheme B, 5a
-  NlgsSettings friction_stage{1500};  // scheme B, 5b
-  FrictionStageOptions friction;      // scheme B: tangents, threshold
+  NlgsSettings coulomb{3000};  // scheme A
+  // scheme B's stages, solved as convex programs by default (docs/schemes.md, "Convex solvers")
+  NlgsSettings normal_stage{1500, StageSolver::Mprgp};    // 5a
+  NlgsSettings friction_stage{1500, StageSolver::Mprgp};  // 5b
+  FrictionStageOptions friction;                          // scheme B: tangents, threshold
   // Candidate screening (both schemes): a candidate that is not predicted to close within
   // the step and carried no impulse at the last one is left out of the solve; after it, each
   // one left out is checked against its law (U*_N(k+1) >= 0 with zero impulse, up to

@@ -160,7 +160,11 @@ bodies:
 time: {step: 2.0e-4, end: 1}
 )";
   const Outcome out = stress("S1c_packing_compressed", text, GetParam(), 1000);
-  expectSane(out, GetParam(), 2.0);
+  // The lid is driven into the packing: its contacts ask the grains to move, so the velocity
+  // set of stage 5a no longer holds rest, and its projection may raise the kinetic energy (a
+  // grain at rest under the lid leaves at the lid's speed). No gain check here; the bound on
+  // the velocities stands.
+  expectSane(out, GetParam(), 2.0, false);
 }
 
 // S2: Painlevé's indeterminate case: the rod of V7 with its lower end sliding away from the

@@ -357,8 +357,16 @@ TEST(ResidualCheck, FrictionStageMeasuresHeldRowsAgainstTheirNormalImpulse) {
 // the walls and between grains turns spin into sliding and rolling), the guarded stage leaves no
 // row below its law beyond the tolerance, and the free one does, by orders of magnitude more.
 TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
+  // the pile settled by NLGS stages: with the convex solvers it settles into a packing where
+  // free open rows happen not to be driven closed, and the comparison would show nothing
+  GranularBoxParameters box;
+  box.count = 150;
+  SchemeSettings settling;
+  settling.scheme = Scheme::CatchingUp;
+  settling.h = 2e-4;
+  settling.normal_stage.solver = settling.friction_stage.solver = StageSolver::Nlgs;
   const test::SettledProblem pile =
-      test::settledPile(150, 1500, NormalLaw::Iqs, Scheme::CatchingUp);
+      test::settledProblem(granularBox(box), settling, 1500, NormalLaw::Iqs);
   const Scene& scene = pile.scene;
   const ContactProblem& p = pile.step.problem;
   ASSERT_GT(p.size(), 150);
