@@ -15,9 +15,14 @@ int main() {
     RockingBlockParameters parameters;
     parameters.friction = mu;
     for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
-      const RockingImpact impact = rockingBlockFirstImpact(parameters, scheme, 1e-4);
-      std::printf("%.2f,%s,%.6f,%.6f,%.3e\n", mu, schemeName(scheme), impact.ratio,
-                  housnerRatio(parameters), impact.corner_slip);
+      // the staggered scheme also with ten threshold updates (FrictionStageOptions)
+      for (int updates : {0, 10}) {
+        if (scheme == Scheme::MoreauJean && updates > 0) continue;
+        const RockingImpact impact = rockingBlockFirstImpact(parameters, scheme, 1e-4, updates);
+        std::printf("%.2f,%s%s,%.6f,%.6f,%.3e\n", mu, schemeName(scheme),
+                    updates > 0 ? " threshold-updates-10" : "", impact.ratio,
+                    housnerRatio(parameters), impact.corner_slip);
+      }
     }
     std::fflush(stdout);
   }

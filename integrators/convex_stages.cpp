@@ -260,7 +260,8 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
                                  const FrictionStageOptions& options,
                                  const std::vector<double>& lambda_N, std::vector<double>& delta,
                                  std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& nlgs,
-                                 std::vector<Vector2>* R) {
+                                 std::vector<Vector2>* R,
+                                 const std::vector<double>* threshold_impulse) {
   NlgsWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
   const int dT = p.dimension - 1;
@@ -280,7 +281,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     }
     nlgs.coupling[c] = coupling;
     nlgs.schur[c] = schur;
-    double S = p.friction[c] * lambda_N[c];
+    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
     if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
       S *= std::sqrt(W(0, 0) / schur(0, 0));
     nlgs.threshold[c] = S;

@@ -35,6 +35,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& problem, const NlgsSettin
                                  const FrictionStageOptions& options,
                                  const std::vector<double>& lambda_N, std::vector<double>& delta,
                                  std::vector<Vector2>& lambda_T, VectorX& v,
-                                 NlgsWorkspace& workspace, std::vector<Vector2>* rolling = nullptr);
+                                 NlgsWorkspace& workspace, std::vector<Vector2>* rolling = nullptr,
+                                 const std::vector<double>* threshold_impulse = nullptr);
 
 }  // namespace sweep

@@ -824,9 +824,11 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
                              const FrictionStageOptions& options,
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws,
-                             std::vector<Vector2>* R) {
+                             std::vector<Vector2>* R,
+                             const std::vector<double>* threshold_impulse) {
   if (settings.solver == StageSolver::Mprgp)
-    return solveFrictionStageMpgp(p, settings, options, lambda_N, delta, lambda_T, v, ws, R);
+    return solveFrictionStageMpgp(p, settings, options, lambda_N, delta, lambda_T, v, ws, R,
+                                  threshold_impulse);
   NlgsStats stats;
   const int n = p.size();
   const int dT = p.dimension - 1;
@@ -839,7 +841,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   }
   for (int c = 0; c < n; ++c) {
     const Matrix3& W = p.delassus[c];
-    double S = p.friction[c] * lambda_N[c];
+    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
     if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
       S *= std::sqrt(W(0, 0) / ws.schur[c](0, 0));
     ws.threshold[c] = S;

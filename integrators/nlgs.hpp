@@ -147,6 +147,12 @@ struct FrictionStageOptions {
   // row carries; false: against the tangential impulses only (the rule before 2026-11-23,
   // which swept rows without friction to the cap; docs/schemes.md)
   bool residual_scale_with_normal = true;
+  // Rounds of stage 5b after the first, each with the thresholds of the held rows taken from
+  // the previous round's total normal impulse, S_c = mu_c (lambda_N,c + delta_c), from v1 and
+  // warm-started [R]: a fixed point on the thresholds, so that the normal impulse friction
+  // itself calls for (a wedge) can lock (docs/schemes.md, "Threshold updates"). 0: the
+  // reference's frozen thresholds.
+  int threshold_updates = 0;
 };
 
 // Stage 5b. rolling: as for solveCoulombNlgs, the bound taken from the stage-5a lambda_N.
@@ -156,11 +162,14 @@ struct FrictionStageOptions {
 // lambda_T: in the warm start, out the tangential impulses. v: in v1 (after 5a), out v2.
 // The impulse on the rows H of contact c is then
 //   (lambda_N + delta + tangentNormalPart(...), lambda_T).
+// threshold_impulse: the normal impulse each threshold is taken from, S_c = mu_c times it
+// (null: lambda_N; rolling bounds always take lambda_N).
 NlgsStats solveFrictionStage(const ContactProblem& problem, const NlgsSettings& settings,
                              const FrictionStageOptions& options,
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& workspace,
-                             std::vector<Vector2>* rolling = nullptr);
+                             std::vector<Vector2>* rolling = nullptr,
+                             const std::vector<double>* threshold_impulse = nullptr);
 
 // The W_N component of LOCAL tangents (t~ = W_T - W_N W_NT / W_NN) times lambda_T; zero in
 // the other modes.

@@ -39,6 +39,9 @@ void SchemeSettings::validate() const {
         "scheme.coulomb.solver must be nlgs: Jean-Moreau's coupled Coulomb problem is not convex");
   normal_stage.validate("catching_up.normal_stage");
   friction_stage.validate("catching_up.friction_stage");
+  if (friction.threshold_updates < 0 || friction.threshold_updates > 100)
+    throw InputError("scheme.threshold_updates must be in [0, 100], got " +
+                     std::to_string(friction.threshold_updates));
   if (std::isnan(screening_gap)) throw InputError("scheme.screening_gap must be a number, got nan");
   if (screening_rounds < 1)
     throw InputError("scheme.screening_rounds must be >= 1, got " +
@@ -538,16 +541,35 @@ void TimeStepper::solveCatchingUp() {
   stats_.kinetic_stage1 = metricKinetic(v);
   // 5b: friction with frozen thresholds, skipped when no contact can have friction
   if (!cmodel_.frictionless) {
-    const NlgsStats friction =
-        solveFrictionStage(problem_, settings_.friction_stage, settings_.friction, lambda_N_,
-                           delta_, lambda_T_, v, nlgs_ws_, problem_.rolling ? &R_ : nullptr);
-    stats_.iterations_stage2 = friction.iterations;
-    stats_.updates += friction.updates;
-    stats_.residual = std::max(stats_.residual, friction.residual);
-    stats_.cap_hit = stats_.cap_hit ||
-                     friction.iterations >= settings_.friction_stage.max_iterations ||
-                     friction.status == SolverStatus::MaxIterations;
-    if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
+    const int rounds = 1 + settings_.friction.threshold_updates;
+    if (rounds > 1) v_stage1_ = v;
+    for (int round = 0; round < rounds; ++round) {
+      const std::vector<double>* threshold = nullptr;
+      if (round > 0) {
+        // thresholds from the last round's total normal impulse on the rows 5a closed
+        threshold_impulse_.assign(n, 0.0);
+        for (int c = 0; c < n; ++c)
+          if (lambda_N_[c] > 0.0)
+            threshold_impulse_[c] =
+                std::max(lambda_N_[c] + delta_[c] +
+                             tangentNormalPart(problem_, c, settings_.friction, lambda_T_[c]),
+                         0.0);
+        threshold = &threshold_impulse_;
+        v = v_stage1_;
+      }
+      const NlgsStats friction = solveFrictionStage(
+          problem_, settings_.friction_stage, settings_.friction, lambda_N_, delta_, lambda_T_, v,
+          nlgs_ws_, problem_.rolling ? &R_ : nullptr, threshold);
+      stats_.iterations_stage2 += friction.iterations;
+      stats_.updates += friction.updates;
+      if (round + 1 < rounds) continue;
+      // the last round's convergence is the step's
+      stats_.residual = std::max(stats_.residual, friction.residual);
+      stats_.cap_hit = stats_.cap_hit ||
+                       friction.iterations >= settings_.friction_stage.max_iterations ||
+                       friction.status == SolverStatus::MaxIterations;
+      if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
+    }
   } else {
     std::fill(delta_.begin(), delta_.end(), 0.0);
     std::fill(lambda_T_.begin(), lambda_T_.end(), Vector2::Zero());

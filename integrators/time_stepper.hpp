@@ -189,6 +189,9 @@ class TimeStepper {
   std::vector<double> delta_;
   std::vector<Vector3> P_;  // problem rows
   std::vector<double> lambda_N_;
+  // FrictionStageOptions::threshold_updates: v after stage 5a, and the rounds' threshold impulses
+  VectorX v_stage1_;
+  std::vector<double> threshold_impulse_;
   std::vector<Vector2> lambda_T_;
   std::vector<double> end_gap_;
   // candidate screening, aligned with contacts: left out of the solve, solved this step

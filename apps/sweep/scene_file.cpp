@@ -690,9 +690,9 @@ class SceneParser {
   }
 
   void parseScheme(const YamlField& f) {
-    f.allowOnly({"name", "normal_law", "tangents", "threshold", "open_contacts", "coulomb",
-                 "normal_stage", "friction_stage", "screening", "screening_rounds", "screening_gap",
-                 "compact_sphere_rows"});
+    f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates",
+                 "open_contacts", "coulomb", "normal_stage", "friction_stage", "screening",
+                 "screening_rounds", "screening_gap", "compact_sphere_rows"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -718,6 +718,9 @@ class SceneParser {
       s.friction.tangents = TangentMode::None;
     else
       f["tangents"].fail("must be global, local or none");
+    const long updates = f.integer("threshold_updates", s.friction.threshold_updates);
+    if (updates < 0 || updates > 100) f["threshold_updates"].fail("must be in [0, 100]");
+    s.friction.threshold_updates = static_cast<int>(updates);
     const std::string threshold = f.text("threshold", "physical");
     if (threshold == "physical")
       s.friction.threshold = FrictionThreshold::Physical;
@@ -1076,6 +1079,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "normal_law" << YAML::Value << law;
   out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
   out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
+  out << YAML::Key << "threshold_updates" << YAML::Value << s.friction.threshold_updates;
   out << YAML::Key << "open_contacts" << YAML::Value << openContactsName(s.friction.open_contacts);
   emitSolver(out, "coulomb", s.coulomb);
   emitSolver(out, "normal_stage", s.normal_stage);

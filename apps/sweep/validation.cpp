@@ -154,9 +154,11 @@ std::vector<ConvergencePoint> bouncingBallConvergence(const BouncingBallParamete
 }
 
 RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
-                                      double h) {
+                                      double h, int threshold_updates) {
   const Scene scene = rockingBlock(parameters);
-  TimeStepper stepper(scene.model, scene.cmodel, tightSettings(scheme, h));
+  SchemeSettings settings = tightSettings(scheme, h);
+  settings.friction.threshold_updates = threshold_updates;
+  TimeStepper stepper(scene.model, scene.cmodel, settings);
   stepper.reset(0.0, scene.q0, scene.v0);
   // the bottom-left corner (-b, -c) is the one that hits the floor first
   // (its x in world: explicit components, which GCC 12's dangling-pointer check accepts)
@@ -274,9 +276,10 @@ SliderCrankRun sliderCrankRun(const SliderCrankParameters& parameters, Scheme sc
 }
 
 WoodpeckerRun woodpeckerRun(const WoodpeckerParameters& parameters, Scheme scheme, double h,
-                            double t_end) {
+                            double t_end, int threshold_updates) {
   const Scene scene = woodpecker(parameters);
   SchemeSettings settings = tightSettings(scheme, h);
+  settings.friction.threshold_updates = threshold_updates;
   settings.coulomb.tolerance = settings.normal_stage.tolerance = settings.friction_stage.tolerance =
       1e-10;
   TimeStepper stepper(scene.model, scene.cmodel, settings, scene.forces);

@@ -51,7 +51,7 @@ struct RockingImpact {
   double corner_slip = 0.0;
 };
 RockingImpact rockingBlockFirstImpact(const RockingBlockParameters& parameters, Scheme scheme,
-                                      double h);
+                                      double h, int threshold_updates = 0);
 
 // V10: the event-driven reference of the wall pendulum (its constraints, in absolute angles
 // th1 = q1, th2 = q1 + q2), sampled at j * sample_interval up to t_end: joint angles per
@@ -114,7 +114,8 @@ struct WoodpeckerRun {
   double contact_work = 0.0;
   long cap_hits = 0;
 };
+// threshold_updates: FrictionStageOptions::threshold_updates of the staggered scheme
 WoodpeckerRun woodpeckerRun(const WoodpeckerParameters& parameters, Scheme scheme, double h,
-                            double t_end);
+                            double t_end, int threshold_updates = 0);
 
 }  // namespace sweep

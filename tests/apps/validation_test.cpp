@@ -189,6 +189,27 @@ TEST(RockingBlock, StickThresholdsOfBothSchemes) {
   }
 }
 
+// With threshold updates (ten rounds of stage 5b, thresholds from the last round's total
+// normal impulse) the staggered scheme's stick threshold is Jean-Moreau's: the corner slides
+// at 0.44 and holds at 0.46, with Jean-Moreau's ratio (0.538030) to 1e-9 where it holds.
+TEST(RockingBlock, ThresholdUpdatesGiveJeanMoreausStickThreshold) {
+  for (double mu : {0.44, 0.46, 0.6}) {
+    RockingBlockParameters parameters;
+    parameters.friction = mu;
+    const RockingImpact updated = rockingBlockFirstImpact(parameters, Scheme::CatchingUp, 1e-4, 10);
+    const RockingImpact coupled = rockingBlockFirstImpact(parameters, Scheme::MoreauJean, 1e-4);
+    const double housner = housnerRatio(parameters);
+    if (mu > 0.45) {
+      EXPECT_NEAR(updated.ratio, housner, 1e-3) << mu;
+      EXPECT_LT(updated.corner_slip, 1e-8) << mu;
+      EXPECT_NEAR(updated.ratio, coupled.ratio, 1e-9) << mu;
+    } else {
+      EXPECT_LT(updated.ratio, housner - 0.005) << mu;
+      EXPECT_GT(updated.corner_slip, 1e-7) << mu;
+    }
+  }
+}
+
 // The runnable example is the same block: with mu = 1 both schemes give Housner's ratio.
 TEST_P(Archetypes, RockingBlockExampleFollowsHousner) {
   ExampleRun run("rocking_block", GetParam());
@@ -239,6 +260,26 @@ TEST_P(Archetypes, BlockOnInclineExampleSlidesOrSticks) {
 // correction -W_NT mu h N0 / W_NN that holds U_N: in all h N0 (1 + mu 1.2 / 1.6) = 2.125 h N0,
 // O(h) (to 1e-3 relative: W is evaluated at the midpoint, which has not turned). The rod keeps
 // sliding, losing O(h) speed (2.34 g h = 2.3e-3 m/s).
+// With threshold updates the staggered scheme jams as Jean-Moreau does: each round's normal
+// correction raises the next round's threshold by the factor mu |W_NT| / W_NN = 1.125, until
+// the end sticks, which takes 27 rounds from the frictionless impulse (10 rounds leave the
+// first step at 0.015, still sliding). With 40, the first step's impulse and velocity are
+// Jean-Moreau's, (0.3, 0.4) and (-0.6, 0.3, 1.342), and kinetic energy does not rise over
+// the solve.
+TEST(PainleveRod, ThresholdUpdatesJamTheStaggeredScheme) {
+  ExampleRun run("painleve_rod", Scheme::CatchingUp, {"scheme.threshold_updates=40"});
+  TimeStepper& stepper = run.stepper;
+  const StepStats& stats = stepper.step();
+  const Vector3 P = stepper.impulses()[0];
+  std::printf("Painleve, threshold updates: P = (%.4f, %.4f), v = (%.4f, %.4f, %.4f)\n", P.x(),
+              P.y(), stepper.v()[0], stepper.v()[1], stepper.v()[2]);
+  EXPECT_NEAR(P.x(), 0.3, 2e-3);
+  EXPECT_NEAR(std::abs(P.y()), 0.4, 2e-3);
+  EXPECT_LT((stepper.v() - Vector3(-0.6, 0.3, 1.342)).norm(), 2e-3);
+  EXPECT_LE(stats.kinetic_solved, stats.kinetic_stage1 * (1.0 + 1e-9));
+  EXPECT_LE(stats.kinetic_stage1, stats.kinetic_free * (1.0 + 1e-9));
+}
+
 TEST(PainleveRod, ExampleJamsInMoreauJeanAndSlidesInTheStaggeredScheme) {
   for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
     ExampleRun run("painleve_rod", scheme);
@@ -581,6 +622,31 @@ TEST(Woodpecker, StaggeredSchemeCannotJamButKeepsItsEnergyAccount) {
   const double lost = run.energy_start - run.energy_end;
   EXPECT_LT(std::abs(run.contact_work + lost), 1e-4 * lost);
   EXPECT_LT(run.y_end, -1.0);  // the characterization above: a slide, not a descent by pecks
+}
+
+// With threshold updates (ten rounds of stage 5b, each taking its thresholds from the last
+// round's total normal impulse) the staggered scheme jams the sleeve between pecks, as
+// Jean-Moreau does: a descent by pecks, not a slide. The energy account still closes, and
+// no step gains energy.
+TEST(Woodpecker, StaggeredSchemeWithThresholdUpdatesJams) {
+  const WoodpeckerRun run =
+      woodpeckerRun(WoodpeckerParameters{}, Scheme::CatchingUp, 2e-5, 1.0, 10);
+  const WoodpeckerRun frozen =
+      woodpeckerRun(WoodpeckerParameters{}, Scheme::CatchingUp, 2e-5, 1.0, 0);
+  std::printf(
+      "V9 staggered, threshold updates: y(1 s) %.4f m, %zu beak impacts, period %.4f s "
+      "(frozen thresholds: y %.3f m, %zu impacts)\n",
+      run.y_end, run.beak_times.size(),
+      run.beak_times.size() > 2 ? (run.beak_times.back() - run.beak_times[1]) /
+                                      static_cast<double>(run.beak_times.size() - 2)
+                                : 0.0,
+      frozen.y_end, frozen.beak_times.size());
+  EXPECT_LT(run.largest_step_rise, 1e-9);
+  const double lost = run.energy_start - run.energy_end;
+  EXPECT_LT(std::abs(run.contact_work + lost), 1e-4 * lost);
+  EXPECT_GT(run.y_end, -0.3);
+  EXPECT_LT(frozen.y_end, -1.0);
+  EXPECT_GE(run.beak_times.size(), 6u);
 }
 
 // The V9 example loads the toy from URDF in 3D (points as 10 um spheres, the spring as a
