@@ -243,6 +243,10 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
   ws.x.clear();
   for (int c = 0; c < n; ++c) {
     const double s = std::sqrt(p.delassus[c](0, 0));
+    if (!(s > 0.0 && std::isfinite(s))) {  // a row that moves nothing carries nothing
+      lambda_N[c] = 0.0;
+      continue;
+    }
     ws.normal_var[c] = ws.set.add(BlockSet::NonNegative, 1);
     ws.normal_scale[c] = 1.0 / s;
     ws.target[c] = -p.normal_bias[c];
@@ -250,7 +254,8 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
   }
   const NormalRows op(p, ws);
   const MprgpStats solve = solveMprgp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
-  for (int c = 0; c < n; ++c) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
+  for (int c = 0; c < n; ++c)
+    if (ws.normal_var[c] >= 0) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
   NlgsStats stats = statsOf(solve, n);
   if (!v.allFinite()) stats.status = SolverStatus::Failed;
   return stats;
@@ -313,9 +318,10 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     prepareRows(ws, n);
     ws.x.clear();
     for (int c = 0; c < n; ++c) {
-      if (!(lambda_N[c] > 0.0)) continue;
+      const double s_N = std::sqrt(p.delassus[c](0, 0));
+      if (!(lambda_N[c] > 0.0) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
       ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
-      ws.normal_scale[c] = 1.0 / std::sqrt(p.delassus[c](0, 0));
+      ws.normal_scale[c] = 1.0 / s_N;
       ws.target[c] = nlgs.held_normal[c];
       ws.x.push_back(0.0);
     }
@@ -337,7 +343,9 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   for (int c = 0; c < n; ++c) {
     const Matrix3& W = p.delassus[c];
     const double s_N = std::sqrt(W(0, 0));
-    if (held(c) || guarded(c)) {
+    // rows that move nothing in a direction (a zero diagonal) carry nothing there
+    auto usable = [](double scale) { return scale > 0.0 && std::isfinite(scale); };
+    if ((held(c) || guarded(c)) && usable(s_N)) {
       // a held row's residual is measured against the normal impulse it carries (as NLGS)
       const double carried = s_N * lambda_N[c];
       ws.normal_var[c] =
@@ -350,7 +358,8 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     if (S > 0.0) {
       const Matrix2 diagonal =
           options.tangents == TangentMode::Local ? nlgs.schur[c] : Matrix2(W.block<2, 2>(1, 1));
-      double radius;
+      double radius = 0.0;
+      bool valid = false;
       if (options.threshold == FrictionThreshold::Metric && p.dimension == 3) {
         // the ellipse lambda^T W_TT lambda <= S^2 W_NN is the disc |z| <= S sqrt(W_NN) in
         // z = L^T lambda, W_TT = L L^T
@@ -358,19 +367,25 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
         const Matrix2 Lt = L.matrixU();
         ws.tangent_map[c] = Lt.inverse();
         radius = S * s_N;
+        valid = L.info() == Eigen::Success && ws.tangent_map[c].allFinite() && usable(s_N);
       } else {
         const double s_T = std::sqrt(p.dimension == 2 ? diagonal(0, 0) : 0.5 * diagonal.trace());
         ws.tangent_map[c] = Matrix2::Identity() / s_T;
         radius = S * s_T;
+        valid = usable(s_T);
       }
-      ws.tangent_var[c] = ws.set.add(BlockSet::Ball, dT, radius);
-      const Vector2 warm = ws.tangent_map[c].inverse() * lambda_T[c];
-      ws.x.push_back(warm.x());
-      if (dT == 2) ws.x.push_back(warm.y());
+      if (valid) {
+        ws.tangent_var[c] = ws.set.add(BlockSet::Ball, dT, radius);
+        const Vector2 warm = ws.tangent_map[c].inverse() * lambda_T[c];
+        ws.x.push_back(warm.x());
+        if (dT == 2) ws.x.push_back(warm.y());
+      }
     }
-    if (rollingRow(c)) {
-      const Matrix2& Wr = p.rolling_delassus[c];
-      const double s_R = std::sqrt(p.dimension == 2 ? Wr(0, 0) : 0.5 * Wr.trace());
+    const double s_R = rollingRow(c)
+                           ? std::sqrt(p.dimension == 2 ? p.rolling_delassus[c](0, 0)
+                                                        : 0.5 * p.rolling_delassus[c].trace())
+                           : 0.0;
+    if (rollingRow(c) && usable(s_R)) {
       ws.rolling_scale[c] = 1.0 / s_R;
       ws.rolling_var[c] = ws.set.add(BlockSet::Ball, dT, p.rolling_bound[c] * lambda_N[c] * s_R);
       ws.x.push_back(s_R * (*R)[c].x());

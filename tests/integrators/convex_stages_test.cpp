@@ -265,5 +265,47 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
   }
 }
 
+// A row that moves nothing (W_NN = 0: a degenerate normal) carries nothing and leaves every
+// number finite, where a scale of 1 / sqrt(W_NN) would turn it into NaN.
+TEST(ConvexStages, ARowThatMovesNothingCarriesNothing) {
+  ContactProblem p;
+  p.dimension = 2;
+  p.contact = {0};
+  p.begin = {0, 2};
+  p.minv_begin = {0, 2};
+  p.dof = {0, 1};
+  p.minv_dof = {0, 1};
+  p.h = {Vector3(0.0, 1.0, 0.0), Vector3(0.0, 0.0, 0.0)};
+  p.minv_h = p.h;
+  Matrix3 W = Matrix3::Zero();
+  W(1, 1) = 1.0;
+  p.delassus = {W};
+  p.delassus_inverse = {Matrix3::Zero()};
+  p.normal_compliance_inverse = {0.0};
+  p.known = {Vector3::Zero()};
+  p.gap = {0.0};
+  p.friction = {0.5};
+  p.restitution = {0.0};
+  p.velocity_start = {Vector3(-1.0, 0.0, 0.0)};
+  p.normal_bias = {-0.1};  // asks for a push the row cannot give
+  NlgsWorkspace ws;
+  ws.prepare(1, 2);
+  NlgsSettings solver;
+  solver.solver = StageSolver::Mprgp;
+  std::vector<double> lambda_N = {1.0};
+  VectorX v = Eigen::Vector2d(1.0, -1.0);
+  const NlgsStats normal = solveNormalStage(p, solver, lambda_N, v, ws);
+  EXPECT_NE(normal.status, SolverStatus::Failed);
+  EXPECT_EQ(lambda_N[0], 0.0);
+  std::vector<double> delta = {0.0};
+  std::vector<Vector2> lambda_T = {Vector2::Zero()};
+  const std::vector<double> pushed = {1.0};  // a threshold from a normal impulse of 1
+  const NlgsStats friction = solveFrictionStage(p, solver, FrictionStageOptions{}, pushed, delta,
+                                                lambda_T, v, ws, nullptr);
+  EXPECT_NE(friction.status, SolverStatus::Failed);
+  EXPECT_TRUE(v.allFinite());
+  EXPECT_TRUE(std::isfinite(delta[0]) && lambda_T[0].allFinite());
+}
+
 }  // namespace
 }  // namespace sweep
