@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The staggered scheme's stage solvers side by side: NLGS against the convex solvers (MPRGP,
-APGD on discs) on the same scenes, run alternately in one session, with Jean-Moreau as the
+APGD on discs) on the same scenes, run alternately in one invocation, with Jean-Moreau as the
 reference. Prints a Markdown table (CPU time, iterations per stage, cap hits, penetration)
 and writes OUT/stage_solvers.csv. From a built tree:
 

@@ -277,15 +277,10 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   // thresholds, the held normal velocities and the per-contact blocks, as solveFrictionStage
   for (int c = 0; c < n; ++c) {
     const Matrix3& W = p.delassus[c];
-    Vector2 coupling = W.block<2, 1>(1, 0) / W(0, 0);
-    Matrix2 schur = W.block<2, 2>(1, 1) - W.block<2, 1>(1, 0) * W.block<1, 2>(0, 1) / W(0, 0);
-    if (p.dimension == 2) {
-      coupling.y() = 0.0;
-      schur(0, 1) = schur(1, 0) = 0.0;
-      schur(1, 1) = 1.0;
-    }
-    nlgs.coupling[c] = coupling;
-    nlgs.schur[c] = schur;
+    const FrictionBlock block = frictionBlock(p, c);
+    nlgs.coupling[c] = block.coupling;
+    nlgs.schur[c] = block.schur;
+    const Matrix2& schur = block.schur;
     double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
     if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
       S *= std::sqrt(W(0, 0) / schur(0, 0));

@@ -271,20 +271,29 @@ double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
   return scale2 > 0.0 ? std::sqrt(f2 / scale2) : std::sqrt(f2);
 }
 
-MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const MprgpSettings& settings,
-                      std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
-  MprgpStats stats;
-  const int n = set.variables;
-  x.resize(n);
-  ws.prepare(n, static_cast<int>(v.size()));
-  std::vector<double>&g = ws.g, &p = ws.p, &Ap = ws.Ap, &phi = ws.phi, &beta = ws.beta;
+namespace {
+// Both solvers' start: the workspace sized, the warm start x projected onto the set and
+// applied to v, and the gradient at it in ws.g (one product).
+void start(const QpOperator& op, const SeparableSet& set, std::vector<double>& x, VectorX& v,
+           MprgpWorkspace& ws, MprgpStats& stats) {
+  x.resize(set.variables);
+  ws.prepare(set.variables, static_cast<int>(v.size()));
   project(set, x);
   if (anyNonZero(x)) {
     op.toVelocity(x, ws.z);
     addScaled(op.dofs(), 1.0, ws.z, v);
   }
-  op.toGradient(v, true, g);
+  op.toGradient(v, true, ws.g);
   stats.products = 1;
+}
+}  // namespace
+
+MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const MprgpSettings& settings,
+                      std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
+  MprgpStats stats;
+  const int n = set.variables;
+  start(op, set, x, v, ws, stats);
+  std::vector<double>&g = ws.g, &p = ws.p, &Ap = ws.Ap, &phi = ws.phi, &beta = ws.beta;
   Split at = split(set, x, g, phi, beta);  // at x
   p = phi;
   double rayleigh = 1.0;  // largest p^T A p / p^T p seen (the scaled diagonal is about 1)
@@ -404,18 +413,10 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
                      std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
   MprgpStats stats;
   const int n = set.variables;
-  x.resize(n);
-  ws.prepare(n, static_cast<int>(v.size()));
+  start(op, set, x, v, ws, stats);
   // x, g, v: the iterate; y (x_half), g_y (g_half), v_y (z_trial): the extrapolated point
   std::vector<double>&g = ws.g, &y = ws.x_half, &g_y = ws.g_half, &d = ws.p, &Ad = ws.Ap;
   VectorX& v_y = ws.z_trial;
-  project(set, x);
-  if (anyNonZero(x)) {
-    op.toVelocity(x, ws.z);
-    addScaled(op.dofs(), 1.0, ws.z, v);
-  }
-  op.toGradient(v, true, g);
-  stats.products = 1;
   y = x;
   g_y = g;
   v_y = v;

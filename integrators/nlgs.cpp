@@ -798,13 +798,6 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
 // scheme B, stage 5b
 // ---------------------------------------------------------------------------------------
 
-namespace {
-
-struct FrictionBlock {
-  Vector2 coupling;  // W_TN / W_NN
-  Matrix2 schur;     // W_TT - W_TN W_NT / W_NN
-};
-
 FrictionBlock frictionBlock(const ContactProblem& p, int c) {
   const Matrix3& W = p.delassus[c];
   FrictionBlock b;
@@ -817,8 +810,6 @@ FrictionBlock frictionBlock(const ContactProblem& p, int c) {
   }
   return b;
 }
-
-}  // namespace
 
 NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settings,
                              const FrictionStageOptions& options,

@@ -171,6 +171,14 @@ NlgsStats solveFrictionStage(const ContactProblem& problem, const NlgsSettings& 
                              std::vector<Vector2>* rolling = nullptr,
                              const std::vector<double>* threshold_impulse = nullptr);
 
+// Contact c's blocks for stage 5b: W_TN / W_NN and the Schur complement W_TT - W_TN W_NT / W_NN
+// (2D: the second tangent's entries zero, its diagonal 1, unused).
+struct FrictionBlock {
+  Vector2 coupling;
+  Matrix2 schur;
+};
+FrictionBlock frictionBlock(const ContactProblem& problem, int c);
+
 // The W_N component of LOCAL tangents (t~ = W_T - W_N W_NT / W_NN) times lambda_T; zero in
 // the other modes.
 double tangentNormalPart(const ContactProblem& problem, int c, const FrictionStageOptions& options,
