@@ -338,7 +338,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
     stats.residual = at.residual;
     // at least one iteration from a warm start, as a Gauss-Seidel solve takes one sweep: the
     // warm start's error, below the tolerance, would otherwise stay in every step of a body at
-    // rest and add up (a block sticking on an incline crept 2.7e-6 m in 10^5 steps)
+    // rest and add up (a block sticking on an incline crept 2.7e-6 m in 10^6 steps)
     const bool exact = at.phi2 == 0.0 && at.beta2 == 0.0;
     if (stats.residual < settings.tolerance && (it > 0 || exact)) {
       stats.converged = !stats.inconsistent;
