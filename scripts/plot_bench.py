@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Figures of `sweep bench DIR`: run time and penetration against the time step, the
 run-time-against-penetration (Pareto) view with the speed-up at equal penetration, and the
-NLGS iterations per step. Reads DIR/bench.csv and DIR/runs/*/stats.csv; writes PNGs and
-DIR/speedup.csv. Usage: plot_bench.py DIR [--iterations-dt H]
+solver iterations per step (NLGS sweeps, or the convex stage solvers' iterations). Reads
+DIR/bench.csv and DIR/runs/*/stats.csv; writes PNGs and DIR/speedup.csv.
+Usage: plot_bench.py DIR [--iterations-dt H]
 """
 import csv
 import math
@@ -130,7 +131,7 @@ def plot_iterations(rows, folder, wanted_dt):
                     color=style.get("color"), lw=0.8, label=style["label"])
     ax.set_yscale("symlog", linthresh=10)
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("NLGS iterations per step")
+    ax.set_ylabel("solver iterations per step")
     ax.set_title(f"h = {dt:g} s")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
