@@ -17,9 +17,11 @@
 //     blocks; when the step would leave the set, an expansion step instead: the largest
 //     feasible step, then a projected free-gradient step of length alpha_bar;
 //   - otherwise a proportioning step: exact line search along -beta, projected.
-// Expansion and proportioning steps are checked for descent (f evaluated from gradients); one
-// that would raise f halves alpha_bar and is taken again. alpha_bar starts at 1.9 over the
-// largest Rayleigh quotient p^T A p / p^T p seen in the solve (1 for a unit diagonal).
+// Expansion and proportioning steps are checked for descent (the change of f from one more
+// product); a step that would raise f is halved, an expansion's alpha_bar with it. alpha_bar
+// starts at 1.9 over the largest Rayleigh quotient p^T A p / p^T p seen in the solve (1 for a
+// unit diagonal). A direction of numerically zero curvature gets no CG step; met with a
+// gradient along it, it means no solution exists, and the solve is reported unconverged.
 // CG converges in about sqrt(cond A) iterations where Gauss-Seidel needs about cond A sweeps, and
 // on a consistent singular system (redundant rows) it converges in the range of A without
 // stalling.
