@@ -274,19 +274,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   if (n == 0) return total;
   collectDofs(p, static_cast<int>(v.size()), ws);
   const bool global = options.tangents == TangentMode::Global;
-  // thresholds, the held normal velocities and the per-contact blocks, as solveFrictionStage
-  for (int c = 0; c < n; ++c) {
-    const Matrix3& W = p.delassus[c];
-    const FrictionBlock block = frictionBlock(p, c);
-    nlgs.coupling[c] = block.coupling;
-    nlgs.schur[c] = block.schur;
-    const Matrix2& schur = block.schur;
-    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
-    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
-      S *= std::sqrt(W(0, 0) / schur(0, 0));
-    nlgs.threshold[c] = S;
-    nlgs.held_normal[c] = p.localVelocity(c, v).x();
-  }
+  prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, nlgs);
   auto held = [&](int c) { return global && lambda_N[c] > 0.0; };
   auto guarded = [&](int c) {
     return global && options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);

@@ -811,6 +811,23 @@ FrictionBlock frictionBlock(const ContactProblem& p, int c) {
   return b;
 }
 
+void prepareFrictionStage(const ContactProblem& p, const FrictionStageOptions& options,
+                          const std::vector<double>& lambda_N,
+                          const std::vector<double>* threshold_impulse, const VectorX& v1,
+                          NlgsWorkspace& ws) {
+  for (int c = 0; c < p.size(); ++c) {
+    const FrictionBlock block = frictionBlock(p, c);
+    ws.coupling[c] = block.coupling;
+    ws.schur[c] = block.schur;
+    const Matrix3& W = p.delassus[c];
+    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
+    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
+      S *= std::sqrt(W(0, 0) / block.schur(0, 0));
+    ws.threshold[c] = S;
+    ws.held_normal[c] = p.localVelocity(c, v1).x();
+  }
+}
+
 NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settings,
                              const FrictionStageOptions& options,
                              const std::vector<double>& lambda_N, std::vector<double>& delta,
@@ -825,19 +842,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   const int dT = p.dimension - 1;
   // thresholds frozen from stage 5a; the normal velocities of closed contacts (GLOBAL)
   // are held at their stage-5a values
-  for (int c = 0; c < n; ++c) {
-    const FrictionBlock block = frictionBlock(p, c);
-    ws.coupling[c] = block.coupling;
-    ws.schur[c] = block.schur;
-  }
-  for (int c = 0; c < n; ++c) {
-    const Matrix3& W = p.delassus[c];
-    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
-    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
-      S *= std::sqrt(W(0, 0) / ws.schur[c](0, 0));
-    ws.threshold[c] = S;
-    ws.held_normal[c] = p.localVelocity(c, v).x();
-  }
+  prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, ws);
   // GLOBAL mode holds the normal velocity of every contact closed by stage 5a (lambda_N > 0),
   // frictionless ones (mu = 0 pairs, joint limits) included: friction elsewhere must not
   // push them open or closed

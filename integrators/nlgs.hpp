@@ -179,6 +179,14 @@ struct FrictionBlock {
 };
 FrictionBlock frictionBlock(const ContactProblem& problem, int c);
 
+// Stage 5b's per-contact setup, for both of its solvers: the blocks above (workspace coupling,
+// schur), the thresholds S_c (threshold_impulse or lambda_N times mu; METRIC's 2D factor) and
+// the normal velocities at v1 that GLOBAL holds.
+void prepareFrictionStage(const ContactProblem& problem, const FrictionStageOptions& options,
+                          const std::vector<double>& lambda_N,
+                          const std::vector<double>* threshold_impulse, const VectorX& v1,
+                          NlgsWorkspace& workspace);
+
 // The W_N component of LOCAL tangents (t~ = W_T - W_N W_NT / W_NN) times lambda_T; zero in
 // the other modes.
 double tangentNormalPart(const ContactProblem& problem, int c, const FrictionStageOptions& options,
