@@ -1,5 +1,7 @@
 #include "contact/mesh_io.hpp"
 
+#include <cmath>
+
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -12,7 +14,17 @@
 namespace sweep {
 
 std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Vector3& scale) {
-  if (!std::filesystem::is_regular_file(path)) throw InputError(path + ": mesh file not found");
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw InputError(path + ": is a folder, not a mesh file");
+  if (!std::filesystem::is_regular_file(path, error))
+    throw InputError(path + ": mesh file not found");
+  // a zero scale flattens the mesh to a point; a negative one turns it inside out
+  for (int k = 0; k < 3; ++k)
+    if (!(scale[k] > 0.0) || !std::isfinite(scale[k]))
+      throw InputError(path + ": mesh scale must be > 0 and finite in each axis, got [" +
+                       formatValue(scale.x()) + " " + formatValue(scale.y()) + " " +
+                       formatValue(scale.z()) + "]");
   Assimp::Importer importer;
   // identical vertices are merged so that edge sharing (manifold checks) can be seen
   const aiScene* scene = importer.ReadFile(

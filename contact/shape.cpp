@@ -216,6 +216,19 @@ void validateShape(const Shape& shape, const std::string& owner) {
                  "vertex " +
                      std::to_string((i + 1) % n) + " is " + show(turn));
       }
+      // every turn to the left is not enough: a pentagram, or a polygon listed twice, turns
+      // left at each vertex but winds around its centre twice
+      double winding = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vector3 e0 = shape.vertices[(i + 1) % n] - shape.vertices[i];
+        const Vector3 e1 = shape.vertices[(i + 2) % n] - shape.vertices[(i + 1) % n];
+        winding += std::atan2(e0.x() * e1.y() - e0.y() * e1.x(), e0.x() * e1.x() + e0.y() * e1.y());
+      }
+      const double turns = winding / (2.0 * M_PI);
+      if (!(std::abs(turns - 1.0) < 1e-6))
+        reject(owner, shape,
+               "vertices must go once around a convex polygon; they go around " + show(turns) +
+                   " times (a star, or a polygon listed twice?)");
       break;
     }
     case ShapeType::HalfSpace:

@@ -9,6 +9,7 @@
 
 #include "framework/data.hpp"
 #include "framework/error.hpp"
+#include "framework/memory.hpp"
 
 namespace sweep {
 
@@ -50,7 +51,7 @@ DrivenBody DrivenBody::keyframes(const std::string& name, const Matrix3& rotatio
                        " is not finite");
     if (k > 0 && !(times[k] > times[k - 1]))
       throw InputError("driven body '" + name + "': keyframe times must increase, got " +
-                       std::to_string(times[k - 1]) + " then " + std::to_string(times[k]));
+                       formatValue(times[k - 1]) + " then " + formatValue(times[k]));
   }
   // the segment holding t: [times[k], times[k+1]), or -1 / last outside the span
   auto segment = [times](double t) {
@@ -108,7 +109,7 @@ int ModelBuilder::addBody(int parent, const std::string& joint_name, const Joint
   };
   if (parent < -1 || parent >= bodyCount())
     fail("parent index " + std::to_string(parent) + " does not exist");
-  if (!(inertia.mass >= 0.0)) fail("mass must be >= 0, got " + std::to_string(inertia.mass));
+  if (!(inertia.mass >= 0.0)) fail("mass must be >= 0, got " + formatValue(inertia.mass));
   if (!inertia.com.allFinite() || !inertia.inertia_com.allFinite())
     fail("inertia has non-finite entries");
   if (!joint_placement.rotation.allFinite() || !joint_placement.translation.allFinite())
@@ -134,8 +135,8 @@ void ModelBuilder::addJointLimits(int body, double lower, double upper) {
     throw InputError(source_ + ": joint '" + b.joint_name + "': limits need a 1-dof " +
                      "revolute or prismatic joint, got " + toString(b.joint.type));
   if (!(lower <= upper))
-    throw InputError(source_ + ": joint '" + b.joint_name + "': lower limit " +
-                     std::to_string(lower) + " exceeds upper limit " + std::to_string(upper));
+    throw InputError(source_ + ": joint '" + b.joint_name + "': lower limit " + formatValue(lower) +
+                     " exceeds upper limit " + formatValue(upper));
   limits_.push_back(JointLimit{body, 0, 0, lower, +1.0});
   limits_.push_back(JointLimit{body, 0, 0, upper, -1.0});
 }
@@ -246,6 +247,20 @@ Model ModelBuilder::build() const {
     model.collisions.push_back(g);
   }
   model.driven_bodies = driven_;
+
+  // Each tree's mass matrix is a dense nv x nv block, held about four times (the block and its
+  // factor, in this check's Data and in the time stepper's): a chain of 10^5 links would ask
+  // for 320 GB. Refuse it here, naming the need, rather than fail inside the allocator.
+  double dense_bytes = 0.0;
+  const Component* largest = nullptr;
+  for (const Component& comp : model.components) {
+    dense_bytes += 4.0 * 8.0 * static_cast<double>(comp.nv) * static_cast<double>(comp.nv);
+    if (!largest || comp.nv > largest->nv) largest = &comp;
+  }
+  if (largest)
+    requireMemory(dense_bytes, source_ + ": the mass matrix of the tree rooted at body '" +
+                                   model.bodies[largest->first_body].name + "' (" +
+                                   std::to_string(largest->nv) + " degrees of freedom)");
 
   // every degree of freedom must move some inertia, or M is singular in every configuration
   // Data's constructor has just built every block at the neutral configuration

@@ -6,11 +6,13 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include <map>
+#include <vector>
 
 #include "framework/error.hpp"
 
@@ -182,6 +184,10 @@ class Importer {
           g.type = GeometryType::Mesh;
           g.mesh_file = resolveMesh(m.filename);
           g.mesh_scale = Vector3(m.scale.x, m.scale.y, m.scale.z);
+          if (!(g.mesh_scale.minCoeff() > 0.0) || !g.mesh_scale.allFinite())
+            fail(where, "mesh scale must be > 0 and finite in each axis, got \"" +
+                            number(m.scale.x) + " " + number(m.scale.y) + " " + number(m.scale.z) +
+                            "\"");
           break;
         }
       }
@@ -224,10 +230,44 @@ class Importer {
     }
   }
 
-  int addJointAndSubtree(const urdf::ModelInterface& urdf, const urdf::Joint& j, int parent,
-                         const Pose& parent_offset) {
+  // Depth first and in file order, as a recursion would number the bodies, but with an explicit
+  // stack: a chain of 10^5 links is a legal URDF and must not overflow the call stack.
+  int addJointAndSubtree(const urdf::ModelInterface& urdf, const urdf::Joint& top, int top_parent,
+                         const Pose& top_offset) {
+    struct Pending {
+      const urdf::Joint* joint;
+      int parent;
+      Pose offset;
+    };
+    std::vector<Pending> stack{{&top, top_parent, top_offset}};
+    int first = -1;
+    while (!stack.empty()) {
+      const Pending next = stack.back();
+      stack.pop_back();
+      const int body = addJointBody(urdf, *next.joint, next.parent, next.offset);
+      if (first < 0) first = body;
+      const urdf::Link& link = *urdf.getLink(next.joint->child_link_name);
+      pushChildren(link, body, stack);
+    }
+    return first;
+  }
+
+  template <class Stack>
+  static void pushChildren(const urdf::Link& link, int body, Stack& stack) {
+    for (auto j = link.child_joints.rbegin(); j != link.child_joints.rend(); ++j)
+      stack.push_back({j->get(), body, Pose{}});
+  }
+
+  int addJointBody(const urdf::ModelInterface& urdf, const urdf::Joint& j, int parent,
+                   const Pose& parent_offset) {
     const urdf::LinkConstSharedPtr link = urdf.getLink(j.child_link_name);
     if (!link) fail("joint '" + j.name + "'", "child link '" + j.child_link_name + "' not found");
+    // a mimic joint is a linear constraint between two coordinates, which the tree importer
+    // does not build: refused, never silently dropped
+    if (j.mimic)
+      fail("joint '" + j.name + "' <mimic>", "mimic joints are not supported (joint '" + j.name +
+                                                 "' would move freely instead " + "of following '" +
+                                                 j.mimic->joint_name + "')");
     const int body = builder_.addBody(parent, options_.name_prefix + j.name, toJoint(j),
                                       parent_offset * toPose(j.parent_to_joint_origin_transform),
                                       linkInertia(*link), options_.name_prefix + link->name);
@@ -243,7 +283,6 @@ class Importer {
         builder_.addJointLimits(body, j.limits->lower, j.limits->upper);
     }
     addLinkContents(*link, body);
-    addChildren(urdf, *link, body);
     return body;
   }
 
@@ -297,11 +336,63 @@ void requireUtf8(const std::string& xml, const std::string& source) {
   }
 }
 
+// TinyXML parses (and frees) nested elements recursively, once per level: 300 000 nested
+// elements overflow the call stack. A URDF nests 4 or 5 levels deep, so the nesting is counted
+// before any parser sees the text and refused past kMaxXmlDepth. The count skips comments,
+// CDATA, declarations and quoted attribute values, whose '<' and '>' are not tags.
+constexpr int kMaxXmlDepth = 100;
+
+void requireShallowXml(const std::string& xml, const std::string& source) {
+  int depth = 0;
+  std::size_t i = 0;
+  const std::size_t size = xml.size();
+  auto skipPast = [&](const char* end) {
+    const std::size_t found = xml.find(end, i);
+    i = found == std::string::npos ? size : found + std::strlen(end);
+  };
+  while ((i = xml.find('<', i)) != std::string::npos) {
+    if (xml.compare(i, 4, "<!--") == 0) {
+      skipPast("-->");
+    } else if (xml.compare(i, 9, "<![CDATA[") == 0) {
+      skipPast("]]>");
+    } else if (xml.compare(i, 2, "<?") == 0) {
+      skipPast("?>");
+    } else if (xml.compare(i, 2, "<!") == 0) {
+      skipPast(">");
+    } else if (xml.compare(i, 2, "</") == 0) {
+      --depth;
+      skipPast(">");
+    } else {
+      const std::size_t open = i;
+      char quote = 0;
+      for (++i; i < size; ++i) {
+        const char c = xml[i];
+        if (quote) {
+          if (c == quote) quote = 0;
+        } else if (c == '"' || c == '\'') {
+          quote = c;
+        } else if (c == '>') {
+          break;
+        }
+      }
+      const bool empty_element = i < size && xml[i - 1] == '/';
+      if (!empty_element && ++depth > kMaxXmlDepth) {
+        const auto line = 1 + std::count(xml.begin(), xml.begin() + static_cast<long>(open), '\n');
+        throw InputError(source + ": line " + std::to_string(line) +
+                         ": elements nested more than " + std::to_string(kMaxXmlDepth) +
+                         " levels deep; a URDF nests about 5 (robot, link, visual, geometry, box)");
+      }
+      ++i;
+    }
+  }
+}
+
 // Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
 // claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
 // that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
 void precheckXml(const std::string& xml, const std::string& source) {
   requireUtf8(xml, source);
+  requireShallowXml(xml, source);
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error())
@@ -325,17 +416,28 @@ void precheckXml(const std::string& xml, const std::string& source) {
                        name + "'");
     if (above) parent_link.emplace(link, above);
   }
-  // every link has at most one parent now: walking up from each one must end
-  for (const auto& [link, first_parent] : parent_link) {
-    std::string at = first_parent;
-    for (std::size_t steps = 0; steps <= parent_link.size(); ++steps) {
-      if (at == link)
-        throw InputError(source + ": joint '" + parent_joint.at(link) + "' closes a loop: link '" +
-                         link + "' is its own ancestor");
-      const auto up = parent_link.find(at);
+  // every link has at most one parent now: walking up from each one must end. A link whose
+  // ancestry is known to end is marked, so that each link is walked once (a chain of 10^5 links
+  // is checked in linear time).
+  enum class Walk : char { Unseen, OnPath, Ends };
+  std::map<std::string, Walk> state;
+  std::vector<const std::string*> path;
+  for (const auto& entry : parent_link) {
+    path.clear();
+    const std::string* at = &entry.first;
+    while (true) {
+      Walk& mark = state[*at];
+      if (mark == Walk::Ends) break;
+      if (mark == Walk::OnPath)
+        throw InputError(source + ": joint '" + parent_joint.at(*at) + "' closes a loop: link '" +
+                         *at + "' is its own ancestor");
+      mark = Walk::OnPath;
+      path.push_back(at);
+      const auto up = parent_link.find(*at);
       if (up == parent_link.end()) break;
-      at = up->second;
+      at = &up->second;
     }
+    for (const std::string* link : path) state[*link] = Walk::Ends;
   }
 }
 

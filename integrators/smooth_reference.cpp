@@ -16,10 +16,10 @@ namespace sweep {
 void SmoothReferenceSettings::validate() const {
   if (!(relative_tolerance > 0.0))
     throw InputError("smooth reference: relative_tolerance must be > 0, got " +
-                     std::to_string(relative_tolerance));
+                     formatValue(relative_tolerance));
   if (!(absolute_tolerance > 0.0))
     throw InputError("smooth reference: absolute_tolerance must be > 0, got " +
-                     std::to_string(absolute_tolerance));
+                     formatValue(absolute_tolerance));
   if (max_steps <= 0) throw InputError("smooth reference: max_steps must be > 0");
   if (max_order < 1 || max_order > 12)
     throw InputError("smooth reference: max_order must be in [1, 12]");

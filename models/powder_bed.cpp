@@ -277,6 +277,8 @@ void LayerWindow::validate(const std::string& owner) const {
   const double columns = (x_max - x_min) / resolution * ((z_max - z_min) / resolution);
   require(columns <= 1e7, owner, "resolution", resolution,
           "gives more than 10^7 height-map columns");
+  const double cells = (x_max - x_min) / cell * ((z_max - z_min) / cell);
+  require(cells <= 1e7, owner, "cell", cell, "gives more than 10^7 packing cells");
 }
 
 LayerWindow defaultLayerWindow(const PowderBedParameters& p) {

@@ -146,27 +146,46 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
     throw InputError(owner(body) + ": inertia must be > 0 and finite, got [" +
                      formatValue(moments.x()) + ", " + formatValue(moments.y()) + ", " +
                      formatValue(moments.z()) + "]");
+  // The model refuses a mass matrix whose pivots span more than 12 orders of magnitude as
+  // singular; said here, the message can name the body and its values (a mass of 1e-300 kg
+  // with an inertia of 1e-5, an inertia of 1e308 with a mass of 1).
+  const double mass = inertia.mass;
+  const double low =
+      dimension == 2 ? std::min(mass, moments.z()) : std::min(mass, moments.minCoeff());
+  const double high =
+      dimension == 2 ? std::max(mass, moments.z()) : std::max(mass, moments.maxCoeff());
+  if (low < 1e-12 * high)
+    throw InputError(owner(body) + ": mass " + formatValue(mass) + " kg and inertia " +
+                     (dimension == 2
+                          ? formatValue(moments.z())
+                          : "[" + formatValue(moments.x()) + ", " + formatValue(moments.y()) +
+                                ", " + formatValue(moments.z()) + "]") +
+                     " kg m^2 differ by more than 12 orders of magnitude: the mass matrix would "
+                     "be singular in double precision (check the units)");
   return inertia;
 }
 
-namespace {
-// Detection at the initial state with a zero margin: every pair that overlaps.
-void rejectInitialOverlaps(const SceneSpec& spec, const Scene& scene) {
+void rejectOverlaps(const Scene& scene, const VectorX& q, const VectorX& v, double max_overlap,
+                    double max_relative_overlap, const std::string& where,
+                    const std::string& when) {
   Data data(scene.model);
-  forwardKinematics(scene.model, data, scene.q0, scene.v0);
+  forwardKinematics(scene.model, data, q, v);
   ContactData cdata(scene.model, scene.cmodel);
   detectContacts(scene.model, data, scene.cmodel, cdata, 0.0, 0.0);
   for (const Contact& c : cdata.contacts) {
-    if (-c.gap <= spec.max_initial_overlap) continue;
-    const std::string& a = scene.cmodel.geometries[c.key.geometry_a].name;
-    const std::string& b = scene.cmodel.geometries[c.key.geometry_b].name;
-    throw InputError(spec.source + ": '" + a + "' and '" + b + "' overlap by " +
-                     formatValue(-c.gap) + " m at t = 0, more than " +
-                     formatValue(spec.max_initial_overlap) +
-                     " m (detection.max_initial_overlap): move them apart");
+    const Geometry& a = scene.cmodel.geometries[c.key.geometry_a];
+    const Geometry& b = scene.cmodel.geometries[c.key.geometry_b];
+    const double size = std::min(boundingRadius(a.shape), boundingRadius(b.shape));
+    const double allowed = std::max(max_overlap, max_relative_overlap * size);
+    if (-c.gap <= allowed) continue;
+    throw InputError(where + ": '" + a.name + "' and '" + b.name + "' overlap by " +
+                     formatValue(-c.gap) + " m " + when + ", more than " + formatValue(allowed) +
+                     (allowed == max_overlap
+                          ? " m (detection.max_initial_overlap): move them apart"
+                          : " m (" + formatValue(max_relative_overlap) +
+                                " of the smaller body's bounding radius): move them apart"));
   }
 }
-}  // namespace
 
 namespace {
 
@@ -369,7 +388,9 @@ Scene buildScene(const SceneSpec& spec) {
   scene.cmodel = cb.build();
   if (scene.model.nv == 0)
     throw InputError(spec.source + ": the scene has no dynamic body: nothing to simulate");
-  if (spec.max_initial_overlap >= 0.0) rejectInitialOverlaps(spec, scene);
+  if (spec.max_initial_overlap >= 0.0)
+    rejectOverlaps(scene, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
+                   "at t = 0");
   return scene;
 }
 

@@ -113,4 +113,11 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension);
 // initial state. InputError naming the body for anything inconsistent.
 Scene buildScene(const SceneSpec& spec);
 
+// Detection at (q, v) with a zero margin: InputError "<where>: 'a' and 'b' overlap by X m
+// <when>, more than ..." for
+// the first pair deeper than max(max_overlap, max_relative_overlap x the smaller bounding
+// radius of the two).
+void rejectOverlaps(const Scene& scene, const VectorX& q, const VectorX& v, double max_overlap,
+                    double max_relative_overlap, const std::string& where, const std::string& when);
+
 }  // namespace sweep

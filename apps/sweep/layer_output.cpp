@@ -1,5 +1,7 @@
 #include "apps/sweep/layer_output.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <zlib.h>
 
 #include <algorithm>
@@ -55,29 +57,28 @@ LayerMetrics measureLayer(const Scene& scene, const VectorX& q, const LayerWindo
 }
 
 void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::string& path) {
-  std::ostringstream j;
-  const auto n = exactNumber;
-  j << "{\n"
-    << "  \"window\": {\"x_min\": " << n(w.x_min) << ", \"x_max\": " << n(w.x_max)
-    << ", \"z_min\": " << n(w.z_min) << ", \"z_max\": " << n(w.z_max)
-    << ", \"plate\": " << n(w.plate) << ", \"gap\": " << n(w.gap) << ", \"cell\": " << n(w.cell)
-    << ", \"resolution\": " << n(w.resolution) << "},\n"
-    << "  \"packing_fraction\": " << n(m.packing_fraction) << ",\n"
-    << "  \"fixed_fraction\": " << n(m.fixed_fraction) << ",\n"
-    << "  \"free_volume_packing_fraction\": " << n(m.free_volume_packing_fraction) << ",\n"
-    << "  \"effective_depth\": " << n(m.effective_depth) << ",\n"
-    << "  \"effective_depth_over_gap\": " << n(m.effective_depth / w.gap) << ",\n"
-    << "  \"solid_thickness\": " << n(m.solid_thickness) << ",\n"
-    << "  \"coverage\": " << n(m.coverage) << ",\n"
-    << "  \"height\": {\"mean\": " << n(m.height_mean) << ", \"std\": " << n(m.height_std)
-    << ", \"highest_top\": " << n(m.highest_top)
-    << ", \"highest_top_speed\": " << n(m.highest_top_speed) << "},\n"
-    << "  \"cell_packing\": {\"cells\": " << m.cells << ", \"mean\": " << n(m.cell_mean)
-    << ", \"std\": " << n(m.cell_std) << ", \"min\": " << n(m.cell_min)
-    << ", \"max\": " << n(m.cell_max) << "},\n"
-    << "  \"particles\": " << m.particles << "\n"
-    << "}\n";
-  writeFileAtomically(path, j.str());
+  nlohmann::ordered_json j;
+  j["window"] = {{"x_min", w.x_min}, {"x_max", w.x_max},          {"z_min", w.z_min},
+                 {"z_max", w.z_max}, {"plate", w.plate},          {"gap", w.gap},
+                 {"cell", w.cell},   {"resolution", w.resolution}};
+  j["packing_fraction"] = m.packing_fraction;
+  j["fixed_fraction"] = m.fixed_fraction;
+  j["free_volume_packing_fraction"] = m.free_volume_packing_fraction;
+  j["effective_depth"] = m.effective_depth;
+  j["effective_depth_over_gap"] = m.effective_depth / w.gap;
+  j["solid_thickness"] = m.solid_thickness;
+  j["coverage"] = m.coverage;
+  j["height"] = {{"mean", m.height_mean},
+                 {"std", m.height_std},
+                 {"highest_top", m.highest_top},
+                 {"highest_top_speed", m.highest_top_speed}};
+  j["cell_packing"] = {{"cells", m.cells},
+                       {"mean", m.cell_mean},
+                       {"std", m.cell_std},
+                       {"min", m.cell_min},
+                       {"max", m.cell_max}};
+  j["particles"] = m.particles;
+  writeFileAtomically(path, jsonText(j));
 }
 
 namespace {

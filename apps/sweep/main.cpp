@@ -146,17 +146,20 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   try {
+    // an empty folder name would write nothing (run) or into the filesystem root (bench)
+    if ((run->parsed() || bench->parsed()) && out_dir.empty())
+      throw sweep::InputError("--out: must name a folder, got ''");
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
     if (run->parsed() && run->count("--dt") > 0) {
       if (!(dt > 0.0) || !std::isfinite(dt))
-        throw sweep::InputError("--dt: must be > 0, got " + std::to_string(dt));
+        throw sweep::InputError("--dt: must be > 0, got " + sweep::exactNumber(dt));
       file.run.scheme.h = dt;
     }
     if ((run->parsed() || bench->parsed()) &&
         app.get_subcommand(run->parsed() ? "run" : "bench")->count("--t-end") > 0) {
       if (!(t_end > 0.0) || !std::isfinite(t_end))
-        throw sweep::InputError("--t-end: must be > 0, got " + std::to_string(t_end));
+        throw sweep::InputError("--t-end: must be > 0, got " + sweep::exactNumber(t_end));
       file.run.t_end = t_end;
     }
     const sweep::Scene scene = sweep::buildSceneFile(file);
@@ -182,9 +185,14 @@ int main(int argc, char** argv) {
       options.stop = &g_stop;
       sweep::SavedState start;
       if (!initial_state.empty()) {
-        start = sweep::readSavedState(initial_state, scene.model);
+        start = sweep::readSavedState(initial_state, scene, file.spec.max_initial_overlap);
         options.start = &start;
         std::cout << "  starting from " << initial_state << " at t = " << start.t << " s\n";
+      }
+      try {
+        sweep::stepCount(start.t, file.run.t_end, file.run.scheme.h);
+      } catch (const sweep::InputError& e) {
+        throw sweep::InputError(scene_path + ": " + e.what());
       }
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
       printSummary(summary, out_dir, std::cout);

@@ -1,18 +1,23 @@
 #include "apps/sweep/run.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
 
 #include "apps/sweep/layer_output.hpp"
 #include "apps/sweep/vtk_writer.hpp"
+#include "apps/sweep/yaml_field.hpp"
 #include "framework/error.hpp"
 
 namespace sweep {
@@ -20,6 +25,12 @@ namespace sweep {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A saved state is checked as a scene is: coordinates a contact can still be resolved at (a
+// double has 1e-10 m of precision at 1e6 m), unit quaternions, and no deep overlap. A state
+// written by a run holds the penetrations the scheme left, far below a tenth of a body's size.
+constexpr double kMaxStateCoordinate = 1e6;
+constexpr double kMaxStateRelativeOverlap = 0.1;
 
 double processCpuSeconds() {
   timespec ts{};
@@ -97,10 +108,30 @@ class Progress {
 
 }  // namespace
 
+long stepCount(double t_start, double t_end, double h) {
+  if (!(h > 0.0) || !std::isfinite(h))
+    throw InputError("time.step must be > 0 and finite, got " + exactNumber(h));
+  if (!(t_end > 0.0) || !std::isfinite(t_end))
+    throw InputError("time.end must be > 0 and finite, got " + exactNumber(t_end));
+  // counted in double: (t_end - t_start) / h can exceed any integer type
+  const double count = (t_end - t_start) / h;
+  const std::string span =
+      "time.end = " + exactNumber(t_end) + " s with time.step = " + exactNumber(h) + " s";
+  if (!(count >= 1.0 - 1e-9))
+    throw InputError(span + (t_start != 0.0 ? " leaves no step after the saved state's t = " +
+                                                  exactNumber(t_start) + " s"
+                                            : ": the end comes before the first step does"));
+  if (!(count <= static_cast<double>(kMaxSteps) + 0.5))
+    throw InputError(span + " is " +
+                     (std::isfinite(count) ? formatValue(count) : std::string("more than 1e308")) +
+                     " steps, more than the 2e+09 a run may take");
+  return std::lround(count);
+}
+
 std::string exactNumber(double x) {
-  std::ostringstream s;
-  s << std::setprecision(17) << x;
-  return s.str();
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof text, x).ptr;
+  return std::string(text, end);
 }
 
 Distribution distributionOf(std::vector<int> values) {
@@ -122,6 +153,33 @@ Distribution distributionOf(std::vector<int> values) {
   return d;
 }
 
+Distribution IterationHistogram::distribution() const {
+  Distribution d;
+  long n = 0;
+  double sum = 0.0;
+  for (const auto& [value, count] : counts_) {
+    n += count;
+    sum += static_cast<double>(value) * static_cast<double>(count);
+  }
+  if (n == 0) return d;
+  d.mean = sum / static_cast<double>(n);
+  // nearest-rank percentiles, as distributionOf
+  auto rank = [&](double p) {
+    const auto k = std::clamp<long>(static_cast<long>(std::ceil(p * static_cast<double>(n))), 1, n);
+    long seen = 0;
+    for (const auto& [value, count] : counts_) {
+      seen += count;
+      if (seen >= k) return static_cast<double>(value);
+    }
+    return static_cast<double>(counts_.rbegin()->first);
+  };
+  d.p50 = rank(0.50);
+  d.p95 = rank(0.95);
+  d.p99 = rank(0.99);
+  d.max = counts_.rbegin()->first;
+  return d;
+}
+
 void writeFileAtomically(const std::string& path, const std::string& text) {
   const std::string partial = path + ".partial";
   {
@@ -135,7 +193,8 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
   if (error) throw std::runtime_error(path + ": cannot rename into place: " + error.message());
 }
 
-SavedState readSavedState(const std::string& path, const Model& model) {
+SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap) {
+  const Model& model = scene.model;
   std::error_code error;
   if (!fs::is_regular_file(path, error))
     throw InputError(path + ": saved state does not exist or is not a regular file");
@@ -172,13 +231,19 @@ SavedState readSavedState(const std::string& path, const Model& model) {
     try {
       index = std::stol(index_text, &used);
       if (used != index_text.size()) index = -1;
-      value = std::stod(value_text, &used);
-      if (used != value_text.size()) fail("value '" + value_text + "' is not a number");
+      // strtod, not stod: stod refuses a subnormal value (1e-310), which a run may write
+      errno = 0;
+      char* end = nullptr;
+      value = std::strtod(value_text.c_str(), &end);
+      if (value_text.empty() || end != value_text.c_str() + value_text.size())
+        fail("value '" + clipForMessage(value_text) + "' is not a number");
+      if (errno == ERANGE && std::abs(value) > 1.0) value = std::numeric_limits<double>::infinity();
     } catch (const std::logic_error&) {
       fail("'" + line.substr(0, 80) + "' is not 'vector,index,number'");
     }
     if (!std::isfinite(value))
-      fail(kind + "[" + index_text + "] = " + value_text + " is not finite");
+      fail(kind + "[" + clipForMessage(index_text) + "] = " + clipForMessage(value_text) +
+           " is not finite");
     const long size = kind == "q" ? model.nq : kind == "v" ? model.nv : kind == "t" ? 1 : -1;
     if (size < 0) fail("vector '" + kind + "' is none of t, q, v");
     if (index < 0 || index >= size)
@@ -207,24 +272,36 @@ SavedState readSavedState(const std::string& path, const Model& model) {
     if (!seen_v[i])
       throw InputError(path + ": v[" + std::to_string(i) + "] is missing (the scene has nv = " +
                        std::to_string(model.nv) + ": a state of another scene?)");
+  if (!(state.t >= 0.0))
+    throw InputError(path + ": t = " + exactNumber(state.t) +
+                     " s is before the scene's start (t = 0)");
+  for (const Body& body : model.bodies) {
+    for (int k = 0; k < body.joint.nq(); ++k) {
+      const double x = state.q[body.q_index + k];
+      if (std::abs(x) > kMaxStateCoordinate)
+        throw InputError(path + ": q[" + std::to_string(body.q_index + k) +
+                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
+                         formatValue(kMaxStateCoordinate) +
+                         " (m or rad): no contact could be resolved at that distance");
+    }
+    if (body.joint.type != JointType::Floating) continue;
+    const double norm = state.q.segment<4>(body.q_index + 3).norm();
+    if (!(std::abs(norm - 1.0) <= 1e-6))
+      throw InputError(path + ": q[" + std::to_string(body.q_index + 3) + ".." +
+                       std::to_string(body.q_index + 6) + "] (body '" + body.name +
+                       "'): the orientation quaternion has norm " + exactNumber(norm) + ", not 1");
+  }
+  if (max_overlap >= 0.0)
+    rejectOverlaps(scene, state.q, state.v, max_overlap, kMaxStateRelativeOverlap, path,
+                   "at the saved state's t = " + exactNumber(state.t) + " s");
   return state;
 }
 
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
   settings.scheme.validate();
-  if (!(settings.t_end > 0.0) || !std::isfinite(settings.t_end))
-    throw InputError("t_end must be > 0, got " + exactNumber(settings.t_end));
   const double h = settings.scheme.h;
   const double t_start = options.start ? options.start->t : 0.0;
-  if (options.start && !(settings.t_end > t_start + 0.5 * h))
-    throw InputError("t_end = " + exactNumber(settings.t_end) +
-                     " s leaves no step after the saved state's t = " + exactNumber(t_start) +
-                     " s");
-  const long steps = std::max(1L, std::lround((settings.t_end - t_start) / h));
-  if (steps > 2000000000L)
-    throw InputError("(t_end - t_start) / dt = " + exactNumber((settings.t_end - t_start) / h) +
-                     " steps is too many");
-
+  const long steps = stepCount(t_start, settings.t_end, h);
   const bool files = !options.out_dir.empty();
   if (files) {
     std::error_code error;
@@ -257,10 +334,10 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   summary.margin_verified =
       scene.cmodel.settings.verify_margin && settings.scheme.normal_law != NormalLaw::Vel;
   summary.energy_initial = stepper.energy();
-  std::vector<int> total, stage1, stage2;
-  total.reserve(steps);
-  stage1.reserve(steps);
-  stage2.reserve(steps);
+  // counts of each iteration number, not a value per step: a run of 10^9 steps must not hold
+  // (or reserve) 10^9 of them
+  IterationHistogram total, stage1, stage2;
+  std::vector<int> per_step;
   double active_sum = 0.0, candidate_sum = 0.0, solves_sum = 0.0;
   double next_snapshot = 0.0;
   if (vtk) {
@@ -281,9 +358,10 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.penetration_cumulative += s.penetration_sum;
     summary.penetration_time_integral += h * s.penetration_sum;
     summary.penetration_peak = std::max(summary.penetration_peak, s.penetration_max);
-    total.push_back(s.iterations_stage1 + s.iterations_stage2);
-    stage1.push_back(s.iterations_stage1);
-    stage2.push_back(s.iterations_stage2);
+    total.add(s.iterations_stage1 + s.iterations_stage2);
+    stage1.add(s.iterations_stage1);
+    stage2.add(s.iterations_stage2);
+    if (options.keep_iterations) per_step.push_back(s.iterations_stage1 + s.iterations_stage2);
     summary.cap_hit_steps += s.cap_hit ? 1 : 0;
     active_sum += s.active;
     candidate_sum += s.candidates;
@@ -304,8 +382,13 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     if (vtk) {
       const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
       const bool interval = settings.output.vtk_interval > 0.0 && s.t >= next_snapshot - 1e-9 * h;
+      // the next multiple of the interval after t, computed rather than stepped to: an interval
+      // far below h would take a loop of (h / interval) additions
       if (interval)
-        while (next_snapshot <= s.t + 1e-9 * h) next_snapshot += settings.output.vtk_interval;
+        next_snapshot =
+            t_start +
+            settings.output.vtk_interval *
+                (std::floor((s.t + 1e-9 * h - t_start) / settings.output.vtk_interval) + 1.0);
       if (every || interval) vtk->write(stepper);
     }
     const bool stopping = options.stop != nullptr && options.stop->load();
@@ -324,10 +407,10 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.mean_candidates = candidate_sum / static_cast<double>(summary.steps);
     summary.mean_solves = solves_sum / static_cast<double>(summary.steps);
   }
-  if (options.keep_iterations) summary.iterations_per_step = total;
-  summary.iterations = distributionOf(std::move(total));
-  summary.iterations_stage1 = distributionOf(std::move(stage1));
-  summary.iterations_stage2 = distributionOf(std::move(stage2));
+  summary.iterations_per_step = std::move(per_step);
+  summary.iterations = total.distribution();
+  summary.iterations_stage1 = stage1.distribution();
+  summary.iterations_stage2 = stage2.distribution();
 
   if (stats.is_open()) {
     stats.close();
@@ -347,57 +430,58 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     for (Eigen::Index i = 0; i < stepper.v().size(); ++i)
       state << "v," << i << ',' << exactNumber(stepper.v()[i]) << '\n';
     writeFileAtomically(options.out_dir + "/final_state.csv", state.str());
+    // the summary first: it holds the run's figures, whatever happens to the layer's files
+    writeSummaryJson(summary, options.out_dir + "/summary.json");
     if (settings.output.layer) {
       const LayerMetrics layer =
           measureLayer(scene, stepper.q(), *settings.output.layer, &stepper.v());
       writeLayerJson(layer, *settings.output.layer, options.out_dir + "/layer.json");
       writeHeightMapPng(layer, *settings.output.layer, options.out_dir + "/layer_height.png");
     }
-    writeSummaryJson(summary, options.out_dir + "/summary.json");
   }
   return summary;
 }
 
+std::string jsonText(const nlohmann::ordered_json& json) {
+  // a NaN or an infinity is written as null: JSON has no other spelling for them
+  return json.dump(2) + "\n";
+}
+
 void writeSummaryJson(const RunSummary& s, const std::string& path) {
   auto distribution = [](const Distribution& d) {
-    return "{\"mean\": " + exactNumber(d.mean) + ", \"p50\": " + exactNumber(d.p50) +
-           ", \"p95\": " + exactNumber(d.p95) + ", \"p99\": " + exactNumber(d.p99) +
-           ", \"max\": " + exactNumber(d.max) + "}";
+    return nlohmann::ordered_json{
+        {"mean", d.mean}, {"p50", d.p50}, {"p95", d.p95}, {"p99", d.p99}, {"max", d.max}};
   };
-  std::ostringstream j;
-  j << "{\n"
-    << "  \"scheme\": \"" << s.scheme << "\",\n"
-    << "  \"dt\": " << exactNumber(s.dt) << ",\n"
-    << "  \"t_end\": " << exactNumber(s.t_end) << ",\n"
-    << "  \"t_reached\": " << exactNumber(s.t_reached) << ",\n"
-    << "  \"steps\": " << s.steps << ",\n"
-    << "  \"interrupted\": " << (s.interrupted ? "true" : "false") << ",\n"
-    << "  \"cpu_seconds\": " << exactNumber(s.cpu_seconds) << ",\n"
-    << "  \"wall_seconds\": " << exactNumber(s.wall_seconds) << ",\n"
-    << "  \"penetration\": {\"cumulative\": " << exactNumber(s.penetration_cumulative)
-    << ", \"time_integral\": " << exactNumber(s.penetration_time_integral)
-    << ", \"peak\": " << exactNumber(s.penetration_peak) << "},\n"
-    << "  \"iterations\": {\"mean\": " << exactNumber(s.iterations.mean)
-    << ", \"p50\": " << exactNumber(s.iterations.p50)
-    << ", \"p95\": " << exactNumber(s.iterations.p95)
-    << ", \"p99\": " << exactNumber(s.iterations.p99)
-    << ", \"max\": " << exactNumber(s.iterations.max) << ", \"cap_hit_steps\": " << s.cap_hit_steps
-    << ",\n                 \"stage1\": " << distribution(s.iterations_stage1)
-    << ",\n                 \"stage2\": " << distribution(s.iterations_stage2) << "},\n"
-    << "  \"contacts\": {\"mean_active\": " << exactNumber(s.mean_active)
-    << ", \"max_active\": " << s.max_active
-    << ", \"mean_candidates\": " << exactNumber(s.mean_candidates)
-    << ", \"mean_solves\": " << exactNumber(s.mean_solves) << ", \"max_solves\": " << s.max_solves
-    << ", \"redetection_steps\": " << s.redetection_steps
-    << ", \"margin_outrun_steps\": " << s.margin_outrun_steps << "},\n"
-    << "  \"solver\": {\"updates\": " << s.updates
-    << ", \"solve_seconds\": " << exactNumber(s.solve_seconds) << ", \"ns_per_update\": "
-    << exactNumber(s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0)
-    << "},\n"
-    << "  \"energy\": {\"initial\": " << exactNumber(s.energy_initial)
-    << ", \"final\": " << exactNumber(s.energy_final) << "}\n"
-    << "}\n";
-  writeFileAtomically(path, j.str());
+  nlohmann::ordered_json j;
+  j["scheme"] = s.scheme;
+  j["dt"] = s.dt;
+  j["t_end"] = s.t_end;
+  j["t_reached"] = s.t_reached;
+  j["steps"] = s.steps;
+  j["interrupted"] = s.interrupted;
+  j["cpu_seconds"] = s.cpu_seconds;
+  j["wall_seconds"] = s.wall_seconds;
+  j["penetration"] = {{"cumulative", s.penetration_cumulative},
+                      {"time_integral", s.penetration_time_integral},
+                      {"peak", s.penetration_peak}};
+  nlohmann::ordered_json iterations = distribution(s.iterations);
+  iterations["cap_hit_steps"] = s.cap_hit_steps;
+  iterations["stage1"] = distribution(s.iterations_stage1);
+  iterations["stage2"] = distribution(s.iterations_stage2);
+  j["iterations"] = iterations;
+  j["contacts"] = {{"mean_active", s.mean_active},
+                   {"max_active", s.max_active},
+                   {"mean_candidates", s.mean_candidates},
+                   {"mean_solves", s.mean_solves},
+                   {"max_solves", s.max_solves},
+                   {"redetection_steps", s.redetection_steps},
+                   {"margin_outrun_steps", s.margin_outrun_steps}};
+  j["solver"] = {{"updates", s.updates},
+                 {"solve_seconds", s.solve_seconds},
+                 {"ns_per_update",
+                  s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0}};
+  j["energy"] = {{"initial", s.energy_initial}, {"final", s.energy_final}};
+  writeFileAtomically(path, jsonText(j));
 }
 
 }  // namespace sweep

@@ -4,6 +4,8 @@
 // renamed when complete, so a file either is whole or is not there.
 #include <atomic>
 #include <iosfwd>
+#include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -18,10 +20,12 @@ struct SavedState {
   VectorX q, v;
 };
 
-// Reads a final_state.csv written by `sweep run` for `model`. InputError naming the file, the
-// line and the value for a missing file, a malformed row, a value that is not finite, or a
-// state of another size than the model's (nq, nv).
-SavedState readSavedState(const std::string& path, const Model& model);
+// Reads a final_state.csv written by `sweep run` for `scene`. InputError naming the file, the
+// line and the value for a missing file, a malformed row, a value that is not finite, a state
+// of another size than the model's (nq, nv), a time before 0, a coordinate beyond 1e6, a
+// quaternion that is not unit, or two bodies overlapping by more than max(max_overlap, a tenth
+// of the smaller one's bounding radius).
+SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap);
 
 struct RunOptions {
   std::string out_dir;                      // empty: no files
@@ -37,6 +41,17 @@ struct Distribution {
   double mean = 0.0, p50 = 0.0, p95 = 0.0, p99 = 0.0, max = 0.0;
 };
 Distribution distributionOf(std::vector<int> values);
+
+// The same distribution from counts of each value: memory grows with the distinct values, not
+// with the steps.
+class IterationHistogram {
+ public:
+  void add(int value) { ++counts_[value]; }
+  Distribution distribution() const;
+
+ private:
+  std::map<int, long> counts_;
+};
 
 struct RunSummary {
   std::string scheme;
@@ -71,10 +86,18 @@ struct RunSummary {
 // finite.
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options);
 
+// The steps of a run from t_start to t_end: the nearest integer to (t_end - t_start) / h.
+// InputError, naming time.end and time.step, for less than one step or more than kMaxSteps.
+inline constexpr long kMaxSteps = 2000000000L;
+long stepCount(double t_start, double t_end, double h);
+
+// JSON text of a document, indented by 2; NaN and infinities become null.
+std::string jsonText(const nlohmann::ordered_json& json);
+
 // summary.json, written atomically
 void writeSummaryJson(const RunSummary& summary, const std::string& path);
 
-// Shortest text that reads back to the same double (17 significant digits).
+// Shortest text that reads back to the same double (std::to_chars).
 std::string exactNumber(double x);
 
 // Writes `text` to `path` through a temporary file and a rename.

@@ -1,5 +1,11 @@
 #include "apps/sweep/yaml_field.hpp"
 
+#include <vector>
+
+#include <sstream>
+
+#include <map>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -26,12 +32,19 @@ std::vector<std::string> YamlField::keys() const {
   return out;
 }
 
+std::string clipForMessage(const std::string& text) {
+  // a message quotes a value, it does not reproduce a 50 MB one
+  constexpr std::size_t kShown = 120;
+  if (text.size() <= kShown) return text;
+  return text.substr(0, kShown) + "... (" + std::to_string(text.size()) + " characters)";
+}
+
 std::string YamlField::quoted() const {
   if (!node_.IsDefined() || node_.IsNull()) return "nothing";
-  if (node_.IsScalar()) return node_.Scalar();
+  if (node_.IsScalar()) return clipForMessage(node_.Scalar());
   YAML::Emitter out;
   out << YAML::Flow << node_;
-  return out.c_str();
+  return clipForMessage(out.c_str());
 }
 
 void YamlField::fail(const std::string& rule) const {
@@ -57,7 +70,7 @@ void YamlField::allowOnly(std::initializer_list<const char*> allowed) const {
     if (known) continue;
     std::string list;
     for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-    throw InputError(file_ + ": " + (path_.empty() ? "" : path_ + ".") + key +
+    throw InputError(file_ + ": " + (path_.empty() ? "" : path_ + ".") + clipForMessage(key) +
                      ": unknown key (expected one of: " + list + ")");
   }
 }
@@ -68,7 +81,10 @@ double YamlField::number() const {
   errno = 0;
   char* end = nullptr;
   const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE) fail("must be a number");
+  if (s.empty() || end != s.c_str() + s.size()) fail("must be a number");
+  // strtod flags a subnormal result (1e-310) with ERANGE too: it is a number Sweep can write
+  // in a saved state, so only an overflow is refused
+  if (errno == ERANGE && std::abs(x) > 1.0) fail("must be finite (it overflows a double)");
   if (!std::isfinite(x)) fail("must be finite");
   return x;
 }
@@ -149,21 +165,96 @@ std::string YamlField::text(const std::string& key, const std::string& fallback)
   return has(key) ? (*this)[key].text() : fallback;
 }
 
-YAML::Node loadYamlFile(const std::string& path) {
-  // a device or a fifo (sweep run /dev/zero) would be read forever
-  std::error_code error;
-  if (std::filesystem::exists(path, error) && !std::filesystem::is_regular_file(path, error))
-    throw InputError(path + ": not a regular file");
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the file");
+namespace {
+
+const char* nodeKind(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Sequence:
+      return "a sequence";
+    case YAML::NodeType::Map:
+      return "a map";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    default:
+      return "null";
+  }
+}
+
+}  // namespace
+
+// yaml-cpp keeps every entry of a map, a repeated key too, and its lookup returns the first: a
+// scene with `dimension: 2` and later `dimension: 3` would run as 2D without a word. It also
+// takes `<<` for an ordinary key. Every map is therefore checked once, after the parse, with
+// an explicit stack (a nesting of 10^5 levels must not overflow the call stack).
+void checkYamlStructure(const YAML::Node& root, const std::string& path) {
+  struct Pending {
+    YAML::Node node;
+    std::string field;
+  };
+  std::vector<Pending> stack{{root, ""}};
+  auto where = [&](const YAML::Node& node, const std::string& field) {
+    return path + ":" + std::to_string(node.Mark().line + 1) + ": " +
+           (field.empty() ? std::string() : field + ": ");
+  };
+  while (!stack.empty()) {
+    const Pending next = stack.back();
+    stack.pop_back();
+    if (next.node.IsSequence()) {
+      for (std::size_t i = next.node.size(); i-- > 0;)
+        stack.push_back({next.node[i], next.field + "[" + std::to_string(i) + "]"});
+      continue;
+    }
+    if (!next.node.IsMap()) continue;
+    std::map<std::string, int> lines;
+    std::vector<Pending> children;
+    for (const auto& entry : next.node) {
+      const YAML::Node& key = entry.first;
+      if (!key.IsScalar())
+        throw InputError(where(key, next.field) + "a key must be a name, got " + nodeKind(key));
+      const std::string& name = key.Scalar();
+      const std::string field = next.field.empty() ? name : next.field + "." + name;
+      if (name == "<<" && key.Tag() != "!")
+        throw InputError(where(key, next.field) +
+                         "YAML merge keys (<<) are not supported: write the entries out");
+      const auto [seen, fresh] = lines.emplace(name, key.Mark().line + 1);
+      if (!fresh)
+        throw InputError(where(key, field) + "given twice (first on line " +
+                         std::to_string(seen->second) + ")");
+      children.push_back({entry.second, field});
+    }
+    for (auto c = children.rbegin(); c != children.rend(); ++c) stack.push_back(*c);
+  }
+}
+
+YAML::Node parseYamlText(const std::string& text, const std::string& path) {
+  std::vector<YAML::Node> documents;
   try {
-    YAML::Node root = YAML::Load(in);
-    if (!root.IsDefined() || root.IsNull()) throw InputError(path + ": the file is empty");
-    return root;
+    documents = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
     throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
                      std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
   }
+  if (documents.size() > 1)
+    throw InputError(path + ":" + std::to_string(documents[1].Mark().line + 1) +
+                     ": a second YAML document starts here; the file must hold one");
+  if (documents.empty() || !documents[0].IsDefined() || documents[0].IsNull())
+    throw InputError(path + ": the file is empty");
+  checkYamlStructure(documents[0], path);
+  return documents[0];
+}
+
+YAML::Node loadYamlFile(const std::string& path) {
+  // a device or a fifo (sweep run /dev/zero) would be read forever
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw InputError(path + ": is a folder, not a file");
+  if (std::filesystem::exists(path, error) && !std::filesystem::is_regular_file(path, error))
+    throw InputError(path + ": not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parseYamlText(text.str(), path);
 }
 
 FieldOverride parseOverride(const std::string& assignment) {
@@ -178,6 +269,7 @@ FieldOverride parseOverride(const std::string& assignment) {
   } catch (const YAML::Exception& e) {
     throw InputError("--set " + assignment + ": the value is not YAML: " + e.msg);
   }
+  checkYamlStructure(result.value, "--set " + result.path);
   return result;
 }
 

@@ -66,6 +66,17 @@ class YamlField {
 // Parses a YAML file; syntax errors become InputError with line and column.
 YAML::Node loadYamlFile(const std::string& path);
 
+// `text` as an error message quotes it: at most 120 characters, then its length.
+std::string clipForMessage(const std::string& text);
+
+// YAML text as one document: InputError naming the file and line for a syntax error, an empty
+// text, a second document, a key that is not a name, a key given twice in one map, or a merge
+// key (<<).
+YAML::Node parseYamlText(const std::string& text, const std::string& path);
+
+// The key checks of parseYamlText on a parsed node.
+void checkYamlStructure(const YAML::Node& root, const std::string& path);
+
 // One field to replace before a scene is parsed: `path` as in messages (scheme.h,
 // bodies[2].radius), `value` as YAML, so lists and numbers keep their types, and `origin`,
 // where it came from, to start every message about it ("--set scheme.h=1e-4",

@@ -207,6 +207,96 @@ class Inputs(unittest.TestCase):
         self.assertIn("24 with a constant mass block", r.stdout)
 
 
+ONE_DISK = """dimension: 2
+gravity: [0, -9.81]
+bodies:
+  - {name: floor, shape: half_plane, position: [0, 0], normal: NORMAL, fixed: true}
+  - {name: d, shape: disk, radius: 0.01, mass: 1, inertia: 5.0e-5, position: [0, 0.0105]}
+time: {step: 1.0e-3, end: 0.05}
+"""
+
+
+class Hostile(unittest.TestCase):
+    """Inputs unlike the catalogue (issue #31): each ends in exit 2 with a message naming the
+    file, field and value, or in a clean run; never a signal, a hang or a runaway allocation."""
+
+    def scene(self, text, name="scene.yaml"):
+        folder = scratch_dir(self, "sweep_hostile_")
+        path = os.path.join(folder, name)
+        with open(path, "w") as f:
+            f.write(text)
+        return folder, path
+
+    def test_time_windows_that_give_no_step_or_too_many(self):
+        folder, path = self.scene(ONE_DISK.replace("NORMAL", "[0, 1]"))
+        for options, message in [
+            (["--t-end", "1e-4"], "scene.yaml: time.end = 1e-04 s with time.step = 0.001 s: "
+                                  "the end comes before the first step does"),
+            (["--dt", "1e-15", "--t-end", "1e300"],
+             "scene.yaml: time.end = 1e+300 s with time.step = 1e-15 s is more than 1e308 steps, "
+             "more than the 2e+09 a run may take"),
+            (["--dt", "1e-12", "--t-end", "1"],
+             "time.end = 1 s with time.step = 1e-12 s is 1e+12 steps, more than the 2e+09"),
+            (["--dt", "-0"], "--dt: must be > 0, got -0"),
+        ]:
+            r = sweep("run", path, "--out", os.path.join(folder, "out"), "--quiet", *options)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(message, r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(folder, "out", "summary.json")))
+
+    def test_empty_output_folder_is_refused(self):
+        for command in (["run", "small_box.yaml"], ["bench", "small_box.yaml", "--dt", "1e-3"]):
+            r = sweep(*command, "--out", "", "--quiet")
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn("--out: must name a folder, got ''", r.stderr)
+
+    def test_snapshot_interval_far_below_the_step_writes_one_per_step(self):
+        text = ONE_DISK.replace("NORMAL", "[0, 1]") + "output: {vtk_interval: 1.0e-30}\n"
+        folder, path = self.scene(text)
+        r = subprocess.run([SWEEP, "run", path, "--out", os.path.join(folder, "out"), "--quiet"],
+                           capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        vtk = [f for f in os.listdir(os.path.join(folder, "out", "vtk")) if f.endswith(".vtp")]
+        self.assertEqual(len(vtk), 51)  # the initial state and one per step
+
+    def test_a_huge_normal_is_the_same_wall(self):
+        finals = []
+        for normal in ("[0, 1]", "[0, 1.0e200]", "[0, 1.0e-200]"):
+            folder, path = self.scene(ONE_DISK.replace("NORMAL", normal))
+            r = sweep("run", path, "--out", os.path.join(folder, "out"), "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(os.path.join(folder, "out", "final_state.csv")) as f:
+                finals.append(f.read())
+        self.assertEqual(finals[1], finals[0])
+        self.assertEqual(finals[2], finals[0])
+
+    def test_a_scene_larger_than_memory_is_refused_before_allocation(self):
+        import resource
+        text = ("dimension: 2\ngenerators:\n  - {type: disks, count: 1000000, radius: {mean: 1.0e-3, "
+                "std: 0}, region: {min: [0, 0], max: [3, 3]}, spacing: 1.2, mass: 1}\n")
+        text = text.replace(", mass: 1}", "}")
+        folder, path = self.scene(text)
+        limit = 1 << 30
+
+        def cap():
+            resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+        r = subprocess.run([SWEEP, "check", path], capture_output=True, text=True, timeout=60,
+                           preexec_fn=cap)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("scene.yaml: generators[0].count = 1000000 (1000000 bodies in the scene "
+                      "so far) needs about 5 GB of memory, more than the 1.07 GB this process "
+                      "may use (the address-space limit, ulimit -v)", r.stderr)
+
+    def test_summary_json_is_json(self):
+        folder, path = self.scene(ONE_DISK.replace("NORMAL", "[0, 1]"))
+        r = sweep("run", path, "--out", os.path.join(folder, "out"), "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(os.path.join(folder, "out", "summary.json")) as f:
+            summary = json.load(f, parse_constant=lambda c: self.fail("not JSON: " + c))
+        self.assertEqual(summary["steps"], 50)
+
+
 class Restart(unittest.TestCase):
     """--initial-state: a run continues from another run's final_state.csv (its t, q, v)."""
 
@@ -255,7 +345,15 @@ class Restart(unittest.TestCase):
             "short.csv": (good[:-1], "v[5] is missing"),
             "twice.csv": (good + ["q,0,1"], "q[0] is given twice"),
             "kind.csv": (good + ["w,0,1"], "vector 'w' is none of t, q, v"),
-            "text.csv": (good[:2] + ["q,0,abc"] + good[3:], "is not 'vector,index,number'"),
+            "text.csv": (good[:2] + ["q,0,abc"] + good[3:], "value 'abc' is not a number"),
+            "cut.csv": (good[:2] + ["q,0"] + good[3:], "expected 'vector,index,value', got 'q,0'"),
+            "before.csv": ([good[0], "t,0,-1e300"] + good[2:],
+                           "t = -1e+300 s is before the scene's start (t = 0)"),
+            "far.csv": (good[:2] + ["q,0,1e300"] + good[3:],
+                        "q[0] = 1e+300 (body 'ball') is beyond 1e+06 (m or rad)"),
+            "quaternion.csv": (good[:5] + ["q,3,0", "q,4,0", "q,5,0", "q,6,0"] + good[9:],
+                               "q[3..6] (body 'ball'): the orientation quaternion has norm 0, "
+                               "not 1"),
             "no_time.csv": ([good[0]] + good[2:], "no 't' row"),
         }
         for name, (lines, message) in cases.items():
@@ -269,6 +367,13 @@ class Restart(unittest.TestCase):
             self.assertIn(path, r.stderr, name)
             self.assertIn(message, r.stderr, name)
             self.assertFalse(os.path.exists(os.path.join(out, "summary.json")), name)
+        # a subnormal number, which a run may write, reads back
+        path = os.path.join(folder, "subnormal.csv")
+        with open(path, "w") as f:
+            f.write("\n".join(good[:9] + ["v,0,1e-310"] + good[10:]) + "\n")
+        r = sweep("run", "loads_3d.yaml", "--out", os.path.join(folder, "out_subnormal"),
+                  "--quiet", "--initial-state", path)
+        self.assertEqual(r.returncode, 0, r.stderr)
         # a state at or after t_end leaves nothing to run
         r = sweep("run", "loads_3d.yaml", "--quiet", "--out", os.path.join(folder, "late"),
                   "--t-end", "0.2", "--initial-state", os.path.join(half, "final_state.csv"))

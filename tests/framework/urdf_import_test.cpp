@@ -147,7 +147,15 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"format_in_number.urdf", "holds a '%' (first on line 8)"},
         BadUrdf{"inertial_origin.urdf", "urdfdom reported an error and left part of the file out"},
         // Latin-1 text: the parser would read it as UTF-8 (and TinyXML past the buffer's end)
-        BadUrdf{"invalid_utf8.urdf", "line 3: not valid UTF-8 (byte 0xE9 at offset 56)"}),
+        BadUrdf{"invalid_utf8.urdf", "line 3: not valid UTF-8 (byte 0xE9 at offset 56)"},
+        BadUrdf{"mimic.urdf",
+                "joint 'finger_right' <mimic>: mimic joints are not supported (joint "
+                "'finger_right' would move freely instead of following 'finger_left')"},
+        BadUrdf{"mesh_scale_zero.urdf",
+                "link 'a' <collision>: mesh scale must be > 0 and finite in each axis, got "
+                "\"0 0 0\""},
+        BadUrdf{"deep_nesting.urdf",
+                "line 3: elements nested more than 100 levels deep; a URDF nests about 5"}),
     [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
       return param_info.param.file.substr(0, param_info.param.file.find('.'));
     });
@@ -175,6 +183,41 @@ TEST(UrdfImport, TruncatedUtf8IsRefusedBeforeParsing) {
                 "</inertial></link></robot>",
                 "utf8.urdf");
   EXPECT_GE(b.build().bodyIndex("caf\xc3\xa9 \xe2\x88\x86 \xf0\x9f\x98\x80"), 0);
+}
+
+std::string chainUrdf(int links) {
+  std::string xml = "<robot name='chain'>";
+  const std::string inertial =
+      "<inertial><mass value='1'/><inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/>"
+      "</inertial>";
+  for (int i = 0; i <= links; ++i)
+    xml += "<link name='l" + std::to_string(i) + "'>" + inertial + "</link>";
+  for (int i = 0; i < links; ++i)
+    xml += "<joint name='j" + std::to_string(i) + "' type='continuous'><parent link='l" +
+           std::to_string(i) + "'/><child link='l" + std::to_string(i + 1) +
+           "'/><axis xyz='0 0 1'/></joint>";
+  return xml + "</robot>";
+}
+
+// A chain of 10^5 links is a legal URDF: it is imported without recursion (a recursion per
+// link overflowed the stack at 10^4), its loop check is linear (a walk up from every link took
+// O(n^2)), and its dense 10^5 x 10^5 mass matrix is refused by its size before allocation.
+TEST(UrdfImport, LongChainIsImportedAndItsMassMatrixRefusedBySize) {
+  ModelBuilder b;
+  addUrdfString(b, chainUrdf(100000), "chain.urdf");
+  EXPECT_EQ(b.bodyCount(), 100001);
+  try {
+    b.build();
+    FAIL() << "a 10^5 x 10^5 dense mass matrix was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the mass matrix of the tree rooted at body 'l0' (100000 "
+                                         "degrees of freedom) needs about 320 GB of memory"),
+              std::string::npos)
+        << e.what();
+  }
+  ModelBuilder small;
+  addUrdfString(small, chainUrdf(300), "chain.urdf");
+  EXPECT_EQ(small.build().nv, 300);
 }
 
 // A '%' is legal in names; only the parse's messages are left unformatted.
