@@ -388,6 +388,14 @@ Scene buildScene(const SceneSpec& spec) {
   scene.cmodel = cb.build();
   if (scene.model.nv == 0)
     throw InputError(spec.source + ": the scene has no dynamic body: nothing to simulate");
+  // 1e6 m leaves a double 1e-10 m of precision: beyond it contacts, and q + h v, lose meaning
+  for (const Body& body : scene.model.bodies)
+    for (int k = 0; k < body.joint.nq(); ++k)
+      if (std::abs(scene.q0[body.q_index + k]) > kMaxCoordinate)
+        throw InputError(spec.source + ": body '" + body.name + "': coordinate " +
+                         formatValue(scene.q0[body.q_index + k]) + " is beyond " +
+                         formatValue(kMaxCoordinate) +
+                         " (m or rad): no contact could be resolved at that distance");
   if (spec.max_initial_overlap >= 0.0)
     rejectOverlaps(scene, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
                    "at t = 0");

@@ -113,6 +113,9 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension);
 // initial state. InputError naming the body for anything inconsistent.
 Scene buildScene(const SceneSpec& spec);
 
+// The largest coordinate a scene or a saved state may hold (m or rad).
+inline constexpr double kMaxCoordinate = 1e6;
+
 // Detection at (q, v) with a zero margin: InputError "<where>: 'a' and 'b' overlap by X m
 // <when>, more than ..." for
 // the first pair deeper than max(max_overlap, max_relative_overlap x the smaller bounding

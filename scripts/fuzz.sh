@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # Fuzzes the scene parser and the URDF importer with libFuzzer (clang), under AddressSanitizer
 # and UndefinedBehaviorSanitizer. Usage:
-#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]     (default: 60 s, scene, settings, urdf)
-# The seed corpus is every scene and URDF of examples/ and tests/data/, plus the inputs that
-# once crashed Sweep (tests/fuzz/regressions/, replayed first). A crash leaves its input in
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]  (default: 60 s, scene, settings, state, urdf)
+# The seed corpus is every scene and URDF of examples/ and tests/data/, the saved states of
+# tests/fuzz/seeds/state/, plus the inputs that once crashed Sweep (tests/fuzz/regressions/,
+# replayed first). The YAML targets mutate with tests/fuzz/scene.dict (the parser's keys). A crash leaves its input in
 # build-fuzz/crash-* and makes this script fail; add the input to tests/fuzz/regressions/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(scene settings urdf)
+[ ${#targets[@]} -gt 0 ] || targets=(scene settings state urdf)
 
 "./scripts/install-deps.sh"
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
@@ -25,7 +26,10 @@ for target in "${targets[@]}"; do
     # a scene file is a settings file too: its top-level keys are paths
     scene | settings) find examples tests/data/scenes -name '*.yaml' -exec cp {} "$corpus/" \; ;;
     urdf) find examples tests/data -name '*.urdf' -exec cp {} "$corpus/" \; ;;
+    state) cp tests/fuzz/seeds/state/* "$corpus/" ;;
   esac
+  dictionary=()
+  case "$target" in scene | settings) dictionary=(-dict=../tests/fuzz/scene.dict) ;; esac
   echo "fuzz: $target for $seconds s"
   # the regressions replay first: libFuzzer runs every given corpus before mutating (a target
   # that never broke has no folder, and libFuzzer refuses a folder that does not exist)
@@ -33,7 +37,7 @@ for target in "${targets[@]}"; do
   [ -d "tests/fuzz/regressions/$target" ] && regressions=("../tests/fuzz/regressions/$target")
   # the whole log is kept in build-fuzz/TARGET.log; its head and tail are shown
   (cd build-fuzz && "./tests/fuzz/${target}_fuzzer" "corpus/$target" \
-     "${regressions[@]}" -max_total_time="$seconds" -max_len=8192 \
+     "${regressions[@]}" "${dictionary[@]}" -max_total_time="$seconds" -max_len=8192 \
      -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 > "$target.log" 2>&1) || {
     # the report starts at a sanitizer's or libFuzzer's ==PID==ERROR line, a UBSan
     # "runtime error:" or a DEADLYSIGNAL line; a looser pattern once matched a harmless

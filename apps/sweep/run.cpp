@@ -26,10 +26,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A saved state is checked as a scene is: coordinates a contact can still be resolved at (a
-// double has 1e-10 m of precision at 1e6 m), unit quaternions, and no deep overlap. A state
-// written by a run holds the penetrations the scheme left, far below a tenth of a body's size.
-constexpr double kMaxStateCoordinate = 1e6;
+// A saved state is checked as a scene is: coordinates within kMaxCoordinate, unit quaternions,
+// and no deep overlap. A state written by a run holds the penetrations the scheme left, far
+// below a tenth of a body's size.
 constexpr double kMaxStateRelativeOverlap = 0.1;
 
 double processCpuSeconds() {
@@ -194,12 +193,20 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
 }
 
 SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap) {
-  const Model& model = scene.model;
   std::error_code error;
   if (!fs::is_regular_file(path, error))
     throw InputError(path + ": saved state does not exist or is not a regular file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the saved state");
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw InputError(path + ": cannot open the saved state");
+  std::ostringstream text;
+  text << file.rdbuf();
+  return readSavedStateText(text.str(), path, scene, max_overlap);
+}
+
+SavedState readSavedStateText(const std::string& text, const std::string& path, const Scene& scene,
+                              double max_overlap) {
+  const Model& model = scene.model;
+  std::istringstream in(text);
   SavedState state;
   state.q = VectorX::Constant(model.nq, std::nan(""));
   state.v = VectorX::Constant(model.nv, std::nan(""));
@@ -278,10 +285,10 @@ SavedState readSavedState(const std::string& path, const Scene& scene, double ma
   for (const Body& body : model.bodies) {
     for (int k = 0; k < body.joint.nq(); ++k) {
       const double x = state.q[body.q_index + k];
-      if (std::abs(x) > kMaxStateCoordinate)
+      if (std::abs(x) > kMaxCoordinate)
         throw InputError(path + ": q[" + std::to_string(body.q_index + k) +
                          "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
-                         formatValue(kMaxStateCoordinate) +
+                         formatValue(kMaxCoordinate) +
                          " (m or rad): no contact could be resolved at that distance");
     }
     if (body.joint.type != JointType::Floating) continue;

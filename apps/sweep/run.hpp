@@ -27,6 +27,10 @@ struct SavedState {
 // of the smaller one's bounding radius).
 SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap);
 
+// The same from the file's text; `path` names it in messages.
+SavedState readSavedStateText(const std::string& text, const std::string& path, const Scene& scene,
+                              double max_overlap);
+
 struct RunOptions {
   std::string out_dir;                      // empty: no files
   bool progress = false;                    // report progress on `log`

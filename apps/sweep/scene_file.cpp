@@ -838,6 +838,9 @@ class SceneParser {
 
   void planBodies(const YamlField& field, long count) {
     planned_bodies_ += static_cast<double>(count);
+    if (planned_bodies_ > static_cast<double>(kMaxGeneratorCount))
+      field.fail("brings the scene to " + std::to_string(static_cast<long>(planned_bodies_)) +
+                 " generated bodies, more than " + countLimit());
     requireMemory(planned_bodies_ * kBytesPerBody,
                   path_ + ": " + field.path() + " = " + std::to_string(count) + " (" +
                       std::to_string(static_cast<long>(planned_bodies_)) +

@@ -33,13 +33,8 @@ const std::string& sceneText() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* bytes, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(bytes), size);
-  YAML::Node settings;
   try {
-    settings = YAML::Load(text);
-  } catch (const YAML::Exception&) {
-    return 0;  // loadYamlFile turns these into InputError with line and column
-  }
-  try {
+    const YAML::Node settings = sweep::parseYamlText(text, "fuzz.yaml");
     YAML::Node root = YAML::Load(sceneText());
     for (const sweep::FieldOverride& entry : sweep::overridesFromYaml(settings, "fuzz.yaml"))
       sweep::applyOverride(root, entry, kScene);
