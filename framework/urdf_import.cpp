@@ -479,6 +479,8 @@ int addUrdfString(ModelBuilder& builder, const std::string& xml, const std::stri
 
 int addUrdf(ModelBuilder& builder, const std::string& path, const UrdfOptions& options) {
   std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": is a folder, not a URDF file");
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path + ": URDF file does not exist or is not a regular file");
   std::ifstream in(path);

@@ -194,6 +194,8 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
 
 SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap) {
   std::error_code error;
+  if (fs::is_directory(path, error))
+    throw InputError(path + ": is a folder; a saved state is a final_state.csv file");
   if (!fs::is_regular_file(path, error))
     throw InputError(path + ": saved state does not exist or is not a regular file");
   std::ifstream file(path, std::ios::binary);

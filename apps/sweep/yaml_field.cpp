@@ -1,5 +1,7 @@
 #include "apps/sweep/yaml_field.hpp"
 
+#include <yaml-cpp/depthguard.h>
+
 #include <vector>
 
 #include <sstream>
@@ -230,6 +232,12 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path) {
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(text);
+  } catch (const YAML::DeepRecursion& e) {
+    // yaml-cpp's depth guard stops a recursion of about 4 calls per level, with "bad file"
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                     std::to_string(e.mark.column + 1) +
+                     ": YAML nested too deeply (the parser stops at about 500 levels; a scene "
+                     "nests about 5)");
   } catch (const YAML::Exception& e) {
     throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
                      std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
