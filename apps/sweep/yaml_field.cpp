@@ -1,6 +1,7 @@
 #include "apps/sweep/yaml_field.hpp"
 
 #include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/eventhandler.h>
 
 #include <vector>
 
@@ -228,27 +229,71 @@ void checkYamlStructure(const YAML::Node& root, const std::string& path) {
   }
 }
 
+namespace {
+
+// Events of a document, kept only for the mark of the first one.
+class FirstMark : public YAML::EventHandler {
+ public:
+  void OnDocumentStart(const YAML::Mark& at) override { note(at); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& at, YAML::anchor_t) override { note(at); }
+  void OnAlias(const YAML::Mark& at, YAML::anchor_t) override { note(at); }
+  void OnScalar(const YAML::Mark& at, const std::string&, YAML::anchor_t,
+                const std::string&) override {
+    note(at);
+  }
+  void OnSequenceStart(const YAML::Mark& at, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    note(at);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& at, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {
+    note(at);
+  }
+  void OnMapEnd() override {}
+  bool seen = false;
+  YAML::Mark first;
+
+ private:
+  void note(const YAML::Mark& m) {
+    if (!seen) first = m;
+    seen = true;
+  }
+};
+
+}  // namespace
+
 YAML::Node parseYamlText(const std::string& text, const std::string& path) {
-  std::vector<YAML::Node> documents;
+  auto syntaxError = [&](const YAML::Mark& mark, const std::string& what) {
+    return InputError(path + ":" + std::to_string(mark.line + 1) + ":" +
+                      std::to_string(mark.column + 1) + ": " + what);
+  };
+  YAML::Node root;
   try {
-    documents = YAML::LoadAll(text);
+    root = YAML::Load(text);
+    // Load reads the first document and ignores the rest. The parser is asked once for a
+    // second: YAML::LoadAll would loop forever, allocating, on some malformed texts (found by
+    // the scene fuzzer), because the parser then reports empty documents without end.
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    FirstMark first, second;
+    parser.HandleNextDocument(first);
+    if (parser.HandleNextDocument(second))
+      throw syntaxError(second.first,
+                        "a second YAML document, or text outside the first, starts here; the "
+                        "file must hold one document");
   } catch (const YAML::DeepRecursion& e) {
     // yaml-cpp's depth guard stops a recursion of about 4 calls per level, with "bad file"
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
-                     std::to_string(e.mark.column + 1) +
-                     ": YAML nested too deeply (the parser stops at about 500 levels; a scene "
-                     "nests about 5)");
+    throw syntaxError(e.mark,
+                      "YAML nested too deeply (the parser stops at about 500 levels; a scene "
+                      "nests about 5)");
   } catch (const YAML::Exception& e) {
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
-                     std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+    throw syntaxError(e.mark, "YAML syntax error: " + e.msg);
   }
-  if (documents.size() > 1)
-    throw InputError(path + ":" + std::to_string(documents[1].Mark().line + 1) +
-                     ": a second YAML document starts here; the file must hold one");
-  if (documents.empty() || !documents[0].IsDefined() || documents[0].IsNull())
-    throw InputError(path + ": the file is empty");
-  checkYamlStructure(documents[0], path);
-  return documents[0];
+  if (!root.IsDefined() || root.IsNull()) throw InputError(path + ": the file is empty");
+  checkYamlStructure(root, path);
+  return root;
 }
 
 YAML::Node loadYamlFile(const std::string& path) {
