@@ -41,9 +41,16 @@ std::string plotScriptPath() {
 int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& options,
              std::ostream& out) {
   if (options.steps.empty()) throw InputError("--dt: give at least one time step");
-  for (double h : options.steps)
+  for (double h : options.steps) {
     if (!(h > 0.0) || !std::isfinite(h))
       throw InputError("--dt: every step must be > 0, got " + exactNumber(h));
+    // every point is checked before the first runs: a bad last point must not cost the others
+    try {
+      stepCount(0.0, file.run.t_end, h);
+    } catch (const InputError& e) {
+      throw InputError(file.path + ": --dt " + exactNumber(h) + ": " + e.what());
+    }
+  }
   if (options.repeat < 1) throw InputError("--repeat: must be >= 1");
   std::vector<Scheme> schemes;
   for (const std::string& name : options.schemes) schemes.push_back(schemeFromName(name));
