@@ -83,6 +83,19 @@ void PowderBedParameters::validate() const {
             "must be >= 1");
     require(positive(d_min), o, "d_min", d_min, "must be > 0");
     require(std::isfinite(d_max) && d_max > d_min, o, "d_max", d_max, "must be > d_min");
+    // diameters are drawn and redrawn until they fall in [d_min, d_max]: a window in the far
+    // tail would take forever. It must hold at least 1e-3 of the distribution.
+    const double sigma = std::log(geometric_std);
+    auto below = [&](double d) {
+      const double z = std::log(d / d50);
+      if (sigma == 0.0) return z >= 0.0 ? 1.0 : 0.0;
+      return 0.5 * std::erfc(-z / (sigma * std::sqrt(2.0)));
+    };
+    const double share = below(d_max) - below(d_min);
+    require(share >= 1e-3, o, "d_min", d_min,
+            "with d_max = " + formatValue(d_max) + " holds a fraction " + formatValue(share) +
+                " of the distribution of d50 = " + formatValue(d50) + ", geometric_std = " +
+                formatValue(geometric_std) + "; it must hold at least 0.001");
   }
   require(positive(density), o, "density", density, "must be > 0");
   require(std::isfinite(friction) && friction >= 0.0, o, "friction", friction, "must be >= 0");
