@@ -124,7 +124,7 @@ Scene sliderCrank(const SliderCrankParameters& p) {
   scene.model = mb.build();
   ContactModelBuilder cb(scene.model);
   cb.materials().setDefaultLaw({p.friction, p.restitution});
-  const double a = 0.5 * p.slider_length, b = 0.5 * p.slider_width;
+  const double a = p.slider_half_length, b = p.slider_half_width;
   cb.addGeometry("slider", BodyRef::dynamic(2), Pose::identity(),
                  Shape::polygon({{-a, -b}, {a, -b}, {a, b}, {-a, b}}));
   const double half_gap = b + p.clearance;

@@ -52,20 +52,21 @@ Scene wallPendulum(const WallPendulumParameters& parameters);
 // V11, a slider-crank whose slider sits in its guide with a clearance (Flores, Leine &
 // Glocker 2010, "Modeling and analysis of planar rigid multibody systems with translational
 // clearance joints based on the non-smooth dynamics approach", Multibody Syst. Dyn. 23):
-// crank l1 about the origin, connecting rod l2, and a slider of length a and width b hinged
-// at the rod's end at its centre; the guide is two lines, y = +-(b/2 + clearance), and the
+// crank l1 about the origin, connecting rod l2, and a slider of half-length a and half-width b
+// (2a x 2b = 0.10 x 0.05 m, as in the paper and Siconos' example) hinged at the rod's end at
+// its centre; the guide is two lines, y = +-(b + clearance), and the
 // slider's four corners touch them (e_N, mu). A planar tree of three revolute joints about z
 // (relative angles); gravity -y. No drive: the crank starts at omega1 and runs free.
 // Absolute angles th = (crank, rod, slider) and their rates at t = 0: th = 0 (crank and rod
 // along +x, the slider centred in the guide), omega = (150, -75, -0.01) rad/s, for which
 // the slider centre starts with zero vertical speed.
 struct SliderCrankParameters {
-  double l1 = 0.153, l2 = 0.306;                      // m
-  double slider_length = 0.05, slider_width = 0.025;  // a, b (m)
-  double clearance = 0.001;                           // m, between each guide line and the slider
-  double m1 = 0.038, m2 = 0.038, m3 = 0.076;          // kg
-  double J1 = 7.4e-5, J2 = 5.9e-4, J3 = 2.7e-6;       // kg m^2, about each centre of mass
-  Vector3 omega = Vector3(150.0, -75.0, -0.01);       // absolute angular velocities at t = 0
+  double l1 = 0.153, l2 = 0.306;                                // m
+  double slider_half_length = 0.05, slider_half_width = 0.025;  // a, b (m)
+  double clearance = 0.001;                      // m, between each guide line and the slider
+  double m1 = 0.038, m2 = 0.038, m3 = 0.076;     // kg
+  double J1 = 7.4e-5, J2 = 5.9e-4, J3 = 2.7e-6;  // kg m^2, about each centre of mass
+  Vector3 omega = Vector3(150.0, -75.0, -0.01);  // absolute angular velocities at t = 0
   double restitution = 0.4, friction = 0.01;
   double gravity = 9.81;
 };
