@@ -3,7 +3,7 @@
 #   examples/funnel/make_figures.sh [OUT_DIR] [extra sweep options, e.g. --set scheme.normal_law=pos]
 # Figure 1: snapshots of both schemes at h = 1e-4; Figure 2: CPU time and cumulative
 # penetration against h, and CPU time against penetration with the speed-up at equal
-# penetration; Figure 3: NLGS iterations per step at h = 1e-4.
+# penetration; Figure 3: solver iterations per step at h = 1e-4.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 out="${1:-results/funnel}"
