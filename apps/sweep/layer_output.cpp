@@ -2,13 +2,14 @@
 
 #include <nlohmann/json.hpp>
 
-#include <zlib.h>
+#include <png.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "apps/sweep/run.hpp"
 #include "framework/kinematics.hpp"
@@ -83,17 +84,6 @@ void writeLayerJson(const LayerMetrics& m, const LayerWindow& w, const std::stri
 
 namespace {
 
-void appendChunk(std::string& png, const char* type, const std::string& data) {
-  auto be32 = [&](std::uint32_t x) {
-    for (int s = 24; s >= 0; s -= 8) png.push_back(static_cast<char>((x >> s) & 0xff));
-  };
-  be32(static_cast<std::uint32_t>(data.size()));
-  const std::string body = std::string(type, 4) + data;
-  png += body;
-  be32(static_cast<std::uint32_t>(
-      crc32(0L, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
-}
-
 // a perceptually ordered dark-blue to yellow ramp (viridis at five stops, linear between)
 std::array<unsigned char, 3> colour(double t) {
   static const double stops[5][3] = {
@@ -112,32 +102,29 @@ std::array<unsigned char, 3> colour(double t) {
 
 void writeHeightMapPng(const LayerMetrics& m, const LayerWindow& w, const std::string& path) {
   const int width = m.columns_x, height = m.columns_z;
-  std::string raw;
-  raw.reserve(static_cast<std::size_t>(height) * (1 + 3 * width));
+  std::vector<unsigned char> pixels;
+  pixels.reserve(static_cast<std::size_t>(height) * width * 3);
   const double top = 1.5 * w.gap;
   for (int row = 0; row < height; ++row) {
-    raw.push_back(0);  // filter: none
     for (int i = 0; i < width; ++i) {
       const float h = m.height_map[static_cast<std::size_t>(row) * width + i];
       const auto rgb = h > 0.0f ? colour(h / top) : std::array<unsigned char, 3>{0, 0, 0};
-      raw.append(reinterpret_cast<const char*>(rgb.data()), 3);
+      pixels.insert(pixels.end(), rgb.begin(), rgb.end());
     }
   }
-  uLongf packed_size = compressBound(static_cast<uLong>(raw.size()));
-  std::string packed(packed_size, '\0');
-  if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size,
-                reinterpret_cast<const Bytef*>(raw.data()), static_cast<uLong>(raw.size()),
-                Z_BEST_COMPRESSION) != Z_OK)
-    throw std::runtime_error(path + ": cannot compress the height map");
-  packed.resize(packed_size);
-  std::string png = "\x89PNG\r\n\x1a\n";
-  std::string header;
-  for (std::uint32_t x : {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height)})
-    for (int s = 24; s >= 0; s -= 8) header.push_back(static_cast<char>((x >> s) & 0xff));
-  header += std::string("\x08\x02\x00\x00\x00", 5);  // 8-bit RGB, deflate, no interlace
-  appendChunk(png, "IHDR", header);
-  appendChunk(png, "IDAT", packed);
-  appendChunk(png, "IEND", "");
+  // libpng's simplified API, into memory, so that the file is written whole or not at all
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = static_cast<png_uint_32>(width);
+  image.height = static_cast<png_uint_32>(height);
+  image.format = PNG_FORMAT_RGB;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&image, nullptr, &size, 0, pixels.data(), 0, nullptr))
+    throw std::runtime_error(path + ": cannot encode the height map: " + image.message);
+  std::string png(size, '\0');
+  if (!png_image_write_to_memory(&image, png.data(), &size, 0, pixels.data(), 0, nullptr))
+    throw std::runtime_error(path + ": cannot encode the height map: " + image.message);
+  png.resize(size);
   writeFileAtomically(path, png);
 }
 

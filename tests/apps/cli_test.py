@@ -405,6 +405,16 @@ class TiledBed(unittest.TestCase):
         settled = os.path.join(folder, "settled")
         r = sweep("run", scene, "--out", settled, "--quiet")
         self.assertEqual(r.returncode, 0, r.stderr)
+        # the height map (libpng) is the window's columns, coloured where the layer covers
+        import matplotlib.image
+        with open(os.path.join(settled, "layer.json")) as f:
+            layer = json.load(f)
+        window = layer["window"]
+        image = matplotlib.image.imread(os.path.join(settled, "layer_height.png"))
+        self.assertEqual(image.shape, (round((window["z_max"] - window["z_min"]) / window["resolution"]),
+                                       round((window["x_max"] - window["x_min"]) / window["resolution"]), 3))
+        covered = (image.max(axis=2) > 0).mean()
+        self.assertAlmostEqual(covered, layer["coverage"], places=9)
         state = os.path.join(settled, "final_state.csv")
         tiled = os.path.join(folder, "tiled.csv")
         r = subprocess.run(["/usr/bin/python3", TILE_STATE, state, "--copies", "2", "--width",
