@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -149,6 +150,12 @@ int main(int argc, char** argv) {
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())
       throw sweep::InputError("--out: must name a folder, got ''");
+    if (exporter->parsed()) {
+      std::error_code error;
+      if (export_path.empty()) throw sweep::InputError("export: OUTPUT must name a file, got ''");
+      if (std::filesystem::is_directory(export_path, error))
+        throw sweep::InputError(export_path + ": is a folder; export writes a scene file");
+    }
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
     if (run->parsed() && run->count("--dt") > 0) {

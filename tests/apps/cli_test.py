@@ -244,11 +244,18 @@ class Hostile(unittest.TestCase):
             self.assertIn(message, r.stderr)
             self.assertFalse(os.path.exists(os.path.join(folder, "out", "summary.json")))
 
-    def test_empty_output_folder_is_refused(self):
+    def test_empty_or_folder_outputs_are_refused(self):
         for command in (["run", "small_box.yaml"], ["bench", "small_box.yaml", "--dt", "1e-3"]):
             r = sweep(*command, "--out", "", "--quiet")
             self.assertEqual(r.returncode, 2, r.stderr)
             self.assertIn("--out: must name a folder, got ''", r.stderr)
+        r = sweep("export", "small_box.yaml", "")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("export: OUTPUT must name a file, got ''", r.stderr)
+        folder = scratch_dir(self, "sweep_export_")
+        r = sweep("export", "small_box.yaml", folder)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn(folder + ": is a folder; export writes a scene file", r.stderr)
 
     def test_snapshot_interval_far_below_the_step_writes_one_per_step(self):
         text = ONE_DISK.replace("NORMAL", "[0, 1]") + "output: {vtk_interval: 1.0e-30}\n"
