@@ -133,23 +133,10 @@ std::string exactNumber(double x) {
   return std::string(text, end);
 }
 
-Distribution distributionOf(std::vector<int> values) {
-  Distribution d;
-  if (values.empty()) return d;
-  std::sort(values.begin(), values.end());
-  double sum = 0.0;
-  for (int v : values) sum += v;
-  d.mean = sum / static_cast<double>(values.size());
-  // nearest-rank percentiles
-  auto rank = [&](double p) {
-    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(values.size())));
-    return static_cast<double>(values[std::clamp<std::size_t>(k, 1, values.size()) - 1]);
-  };
-  d.p50 = rank(0.50);
-  d.p95 = rank(0.95);
-  d.p99 = rank(0.99);
-  d.max = values.back();
-  return d;
+Distribution distributionOf(const std::vector<int>& values) {
+  IterationHistogram histogram;
+  for (int v : values) histogram.add(v);
+  return histogram.distribution();
 }
 
 Distribution IterationHistogram::distribution() const {
@@ -162,7 +149,7 @@ Distribution IterationHistogram::distribution() const {
   }
   if (n == 0) return d;
   d.mean = sum / static_cast<double>(n);
-  // nearest-rank percentiles, as distributionOf
+  // nearest-rank percentiles
   auto rank = [&](double p) {
     const auto k = std::clamp<long>(static_cast<long>(std::ceil(p * static_cast<double>(n))), 1, n);
     long seen = 0;

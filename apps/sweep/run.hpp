@@ -44,7 +44,7 @@ struct RunOptions {
 struct Distribution {
   double mean = 0.0, p50 = 0.0, p95 = 0.0, p99 = 0.0, max = 0.0;
 };
-Distribution distributionOf(std::vector<int> values);
+Distribution distributionOf(const std::vector<int>& values);
 
 // The same distribution from counts of each value: memory grows with the distinct values, not
 // with the steps.
