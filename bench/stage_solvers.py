@@ -31,6 +31,8 @@ CONFIGS = [
                           "--set", "scheme.friction_stage.solver=nlgs"]),
     ("catching-up mprgp", ["--scheme", "catching-up", "--set", "scheme.normal_stage.solver=mprgp",
                            "--set", "scheme.friction_stage.solver=mprgp"]),
+    ("catching-up newton", ["--scheme", "catching-up", "--set", "scheme.normal_stage.solver=newton",
+                            "--set", "scheme.friction_stage.solver=newton"]),
 ]
 
 
@@ -67,6 +69,9 @@ def main():
     parser.add_argument("--out", default="results/stage_solvers")
     parser.add_argument("--sweep", default=os.path.join(ROOT, "build", "sweep"))
     parser.add_argument("--cases", default="funnel,slider_crank,funnel_500")
+    parser.add_argument("--configs", default=",".join(name for name, _ in CONFIGS),
+                        help="comma-separated configurations, of: " +
+                        ", ".join(name for name, _ in CONFIGS))
     parser.add_argument("--dt", default="", help="time steps for the funnel cases (default: the "
                         "scene's)")
     parser.add_argument("--repeat", type=int, default=1,
@@ -75,6 +80,8 @@ def main():
     parser.add_argument("extra", nargs="*", help="options passed to every sweep run")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
+    configs = [(name, options) for name, options in CONFIGS
+               if name in args.configs.split(",")]
     results = []
     for case in args.cases.split(","):
         scene, extra = CASES[case]
@@ -84,13 +91,13 @@ def main():
         for dt in steps:
             best = {}
             for _ in range(args.repeat):
-                for name, options in CONFIGS:
+                for name, options in configs:
                     label = f"{case}_{name.replace(' ', '_')}" + (f"_dt{dt}" if dt else "")
                     opts = extra + options + (["--dt", dt] if dt else []) + args.extra
                     row = run(args.sweep, scene, opts, os.path.join(args.out, "runs", label))
                     if name not in best or row["cpu_seconds"] < best[name]["cpu_seconds"]:
                         best[name] = row
-            for name, _ in CONFIGS:
+            for name, _ in configs:
                 row = best[name]
                 row.update({"case": case, "dt": dt or "scene", "config": name})
                 results.append(row)

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "integrators/packed_rows.hpp"
+#include "integrators/projected_newton.hpp"
 
 namespace sweep {
 
@@ -57,6 +58,32 @@ bool packed3d(const ContactProblem& p) {
   return p.packed3dComplete() && p.spheres3d.empty();
 }
 
+// Appends the column of a variable whose unit value is the impulse (dP, dR) on row c:
+// H_c (dP, dR) to J and M^-1 H_c (dP, dR) to K (QpOperator::columns).
+void appendColumn(const ContactProblem& p, int c, const Vector3& dP, const Vector2& dR,
+                  SparseColumns& J, SparseColumns& K) {
+  const bool rolling = p.rolling && !dR.isZero(0.0);
+  if (p.isDiagonal(c) || p.hasNoEntries(c)) {
+    p.forEachDiagonalEntry(c, [&](int k, const Vector3& h, const Vector2& h_r, double im) {
+      const double s = h.dot(dP) + (rolling ? h_r.dot(dR) : 0.0);
+      if (s == 0.0) return;
+      J.push(k, s);
+      K.push(k, im * s);
+    });
+  } else {
+    for (int e = p.begin[c]; e < p.begin[c + 1]; ++e) {
+      const double s = p.h[e].dot(dP) + (rolling ? p.rolling_h[e].dot(dR) : 0.0);
+      if (s != 0.0) J.push(p.dof[e], s);
+    }
+    for (int e = p.minv_begin[c]; e < p.minv_begin[c + 1]; ++e) {
+      const double s = p.minv_h[e].dot(dP) + (rolling ? p.rolling_minv_h[e].dot(dR) : 0.0);
+      if (s != 0.0) K.push(p.minv_dof[e], s);
+    }
+  }
+  J.endColumn();
+  K.endColumn();
+}
+
 // Normal rows only: variable normal_var[c] (-1: none) is s_c lambda_c; the gradient is
 // (U_N(v) - target_c) / s_c.
 class NormalRows final : public QpOperator {
@@ -97,6 +124,12 @@ class NormalRows final : public QpOperator {
     }
   }
   const std::vector<int>* dofs() const override { return &ws_.dofs; }
+  bool columns(SparseColumns& J, SparseColumns& K) const override {
+    for (int c = 0; c < p_.size(); ++c)
+      if (ws_.normal_var[c] >= 0)
+        appendColumn(p_, c, Vector3(ws_.normal_scale[c], 0, 0), Vector2::Zero(), J, K);
+    return true;
+  }
 
  private:
   const ContactProblem& p_;
@@ -189,6 +222,24 @@ class FrictionRows final : public QpOperator {
     }
   }
   const std::vector<int>* dofs() const override { return &ws_.dofs; }
+  // in the variables' order: per row its normal correction, tangents, rolling rows
+  bool columns(SparseColumns& J, SparseColumns& K) const override {
+    for (int c = 0; c < p_.size(); ++c) {
+      if (ws_.normal_var[c] >= 0)
+        appendColumn(p_, c, Vector3(ws_.normal_scale[c], 0, 0), Vector2::Zero(), J, K);
+      if (ws_.tangent_var[c] >= 0)
+        for (int j = 0; j < dT_; ++j) {
+          const Vector2 impulse = ws_.tangent_map[c].col(j);
+          Vector3 dP(0.0, impulse.x(), dT_ == 2 ? impulse.y() : 0.0);
+          if (options_.tangents == TangentMode::Local) dP.x() = -nlgs_.coupling[c].dot(impulse);
+          appendColumn(p_, c, dP, Vector2::Zero(), J, K);
+        }
+      if (ws_.rolling_var[c] >= 0)
+        for (int j = 0; j < dT_; ++j)
+          appendColumn(p_, c, Vector3::Zero(), ws_.rolling_scale[c] * Vector2::Unit(j), J, K);
+    }
+    return true;
+  }
 
  private:
   const ContactProblem& p_;
@@ -218,6 +269,15 @@ void collectDofs(const ContactProblem& p, int nv, NlgsWorkspace::Convex& ws) {
       ws.dofs.push_back(k);
     });
   std::sort(ws.dofs.begin(), ws.dofs.end());
+}
+
+// The stage's program by the stage's solver: projected Newton when asked for and every set is
+// a box, else MPRGP on boxes and APGD on discs.
+MprgpStats solveProgram(const QpOperator& op, const NlgsSettings& settings,
+                        NlgsWorkspace::Convex& ws, VectorX& v) {
+  if (settings.solver == StageSolver::Newton && projectedNewtonApplies(ws.set))
+    return solveProjectedNewton(op, ws.set, mprgpSettings(settings), ws.x, v, ws.newton, ws.mprgp);
+  return solveSeparableQp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
 }
 
 void prepareRows(NlgsWorkspace::Convex& ws, int n) {
@@ -253,7 +313,7 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
     ws.x.push_back(s * lambda_N[c]);
   }
   const NormalRows op(p, ws);
-  const MprgpStats solve = solveMprgp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
+  const MprgpStats solve = solveProgram(op, settings, ws, v);
   for (int c = 0; c < n; ++c)
     if (ws.normal_var[c] >= 0) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
   NlgsStats stats = statsOf(solve, n);
@@ -311,8 +371,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
     ws.v_normal.setZero();
     const NormalRows op(p, ws);
-    const MprgpStats projection =
-        solveMprgp(op, ws.set, mprgpSettings(settings), ws.x, ws.v_normal, ws.mprgp);
+    const MprgpStats projection = solveProgram(op, settings, ws, ws.v_normal);
     total.updates += static_cast<long>(projection.products) * n;
     for (int c = 0; c < n; ++c) {
       const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
@@ -376,7 +435,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     }
   }
   const FrictionRows op(p, options, nlgs);
-  const MprgpStats solve = solveSeparableQp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
+  const MprgpStats solve = solveProgram(op, settings, ws, v);
   for (int c = 0; c < n; ++c) {
     delta[c] = ws.normal_var[c] >= 0 ? ws.x[ws.normal_var[c]] * ws.normal_scale[c] : 0.0;
     const int t = ws.tangent_var[c];

@@ -44,15 +44,6 @@ void MprgpWorkspace::prepare(int variables, int velocities) {
   }
 }
 
-namespace {
-
-// a disc block this close to its radius (relative) is on the boundary: projections put it
-// there only up to round-off
-constexpr double kOnBoundary = 1e-12;
-// curvature p^T A p / p^T p below this fraction of the largest seen: a direction in the
-// numerical null space of A
-constexpr double kFlat = 1e-9;
-
 BlockSet effectiveSet(const SeparableSet& s, int b) {
   return s.set[b] == BlockSet::Ball && !(s.radius[b] > 0.0) ? BlockSet::Fixed : s.set[b];
 }
@@ -88,6 +79,15 @@ void projectBlock(const SeparableSet& s, int b, double* x) {
 void project(const SeparableSet& s, std::vector<double>& x) {
   for (int b = 0; b < s.blocks(); ++b) projectBlock(s, b, x.data() + s.first[b]);
 }
+
+namespace {
+
+// a disc block this close to its radius (relative) is on the boundary: projections put it
+// there only up to round-off
+constexpr double kOnBoundary = 1e-12;
+// curvature p^T A p / p^T p below this fraction of the largest seen: a direction in the
+// numerical null space of A
+constexpr double kFlat = 1e-9;
 
 // phi: g on the blocks inside their set; beta: on the blocks on their boundary, the part of g
 // that does not point out of the set. Also the natural-map residual at (x, g) (see

@@ -57,6 +57,30 @@ struct SeparableSet {
   int blocks() const { return static_cast<int>(set.size()); }
 };
 
+// A ball of radius 0 is the point {0}: Fixed.
+BlockSet effectiveSet(const SeparableSet& set, int block);
+// the Euclidean projection of block b (x: its first variable), and of every block
+void projectBlock(const SeparableSet& set, int block, double* x);
+void project(const SeparableSet& set, std::vector<double>& x);
+
+// Sparse columns (compressed sparse column form), the variables' images over the velocities.
+struct SparseColumns {
+  std::vector<int> begin{0};  // column j: entries [begin[j], begin[j + 1])
+  std::vector<int> row;
+  std::vector<double> value;
+  void clear() {
+    begin.assign(1, 0);
+    row.clear();
+    value.clear();
+  }
+  void push(int r, double x) {
+    row.push_back(r);
+    value.push_back(x);
+  }
+  void endColumn() { begin.push_back(static_cast<int>(row.size())); }
+  int columns() const { return static_cast<int>(begin.size()) - 1; }
+};
+
 // A = E^T H^T M^-1 H E, b = E^T (H^T v0 + known) - target, matrix-free.
 class QpOperator {
  public:
@@ -69,6 +93,9 @@ class QpOperator {
   // velocities run over these only, where a powder bed's few hundred contacts would otherwise
   // pay for its 21 000 velocities at every iteration
   virtual const std::vector<int>* dofs() const { return nullptr; }
+  // The columns of H E (J) and of M^-1 H E (K) over the velocities, one per variable, so that
+  // A = J^T K can be formed for a direct solver; false when the operator cannot give them.
+  virtual bool columns(SparseColumns& /*J*/, SparseColumns& /*K*/) const { return false; }
 };
 
 // z = 0 over dofs (all of z when null)
@@ -84,6 +111,7 @@ struct MprgpStats {
   int iterations = 0;
   int products = 0;  // operator products (toVelocity + toGradient pairs)
   int cg_steps = 0, expansions = 0, proportionings = 0;
+  int newton_steps = 0;  // projected_newton.hpp: factorized steps before any MPRGP hand-over
   double residual = 0.0;
   bool converged = false;
   bool inconsistent = false;  // unbounded along a null direction of A: no solution exists

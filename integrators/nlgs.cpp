@@ -45,7 +45,15 @@ const char* openContactsName(OpenContacts open) {
 }
 
 const char* stageSolverName(StageSolver solver) {
-  return solver == StageSolver::Mprgp ? "mprgp" : "nlgs";
+  switch (solver) {
+    case StageSolver::Mprgp:
+      return "mprgp";
+    case StageSolver::Newton:
+      return "newton";
+    case StageSolver::Nlgs:
+      break;
+  }
+  return "nlgs";
 }
 
 void NlgsSettings::validate(const std::string& owner) const {
@@ -720,7 +728,7 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
 
 NlgsStats solveNormalStage(const ContactProblem& p, const NlgsSettings& settings,
                            std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& ws) {
-  if (settings.solver == StageSolver::Mprgp)
+  if (settings.solver != StageSolver::Nlgs)
     return solveNormalStageMprgp(p, settings, lambda_N, v, ws);
   NlgsStats total;
   for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0, 0), v);
@@ -834,7 +842,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
                              std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& ws,
                              std::vector<Vector2>* R,
                              const std::vector<double>* threshold_impulse) {
-  if (settings.solver == StageSolver::Mprgp)
+  if (settings.solver != StageSolver::Nlgs)
     return solveFrictionStageMpgp(p, settings, options, lambda_N, delta, lambda_T, v, ws, R,
                                   threshold_impulse);
   NlgsStats stats;

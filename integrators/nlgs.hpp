@@ -16,6 +16,7 @@
 
 #include "integrators/contact_problem.hpp"
 #include "integrators/mprgp.hpp"
+#include "integrators/projected_newton.hpp"
 
 namespace sweep {
 
@@ -40,8 +41,10 @@ const char* nlgsAccelerationName(NlgsAcceleration acceleration);
 // convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on stage 5a's bound
 // constraints, MPGP on stage 5b's friction discs, intervals, held and guarded rows. Scheme A's
 // coupled Coulomb problem is not convex and takes NLGS only.
-enum class StageSolver { Nlgs, Mprgp };
-const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp"
+// Newton: projected Newton steps with a sparse Cholesky factorization on box sets
+// (integrators/projected_newton.hpp), APGD on discs.
+enum class StageSolver { Nlgs, Mprgp, Newton };
+const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp", "newton"
 
 struct NlgsSettings {
   int max_iterations = 3000;
@@ -92,6 +95,7 @@ struct NlgsWorkspace {
   // row its variables (-1: none) and their scales
   struct Convex {
     MprgpWorkspace mprgp;
+    ProjectedNewtonWorkspace newton;
     SeparableSet set;
     std::vector<double> x;
     std::vector<int> normal_var, tangent_var, rolling_var;

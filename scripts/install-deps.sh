@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake clang-format
   libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libassimp-dev libsundials-dev libyaml-cpp-dev
-  libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
+  libsuitesparse-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
   python3-matplotlib python3-numpy
 )
 

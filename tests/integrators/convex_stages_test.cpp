@@ -10,6 +10,7 @@
 #include <random>
 
 #include "integrators/mprgp.hpp"
+#include "integrators/projected_newton.hpp"
 #include "solver_fixtures.hpp"
 
 namespace sweep {
@@ -26,6 +27,17 @@ class DenseProgram final : public QpOperator {
     VectorX g = B_.transpose() * v;
     if (affine) g += b_;
     for (Eigen::Index i = 0; i < g.size(); ++i) y[i] = g[i];
+  }
+  bool columns(SparseColumns& J, SparseColumns& K) const override {
+    for (Eigen::Index j = 0; j < B_.cols(); ++j) {
+      for (Eigen::Index i = 0; i < B_.rows(); ++i) {
+        J.push(static_cast<int>(i), B_(i, j));
+        K.push(static_cast<int>(i), B_(i, j));
+      }
+      J.endColumn();
+      K.endColumn();
+    }
+    return true;
   }
   double objective(const std::vector<double>& x) const {
     const VectorX xv = Eigen::Map<const VectorX>(x.data(), static_cast<Eigen::Index>(x.size()));
@@ -164,6 +176,78 @@ TEST(Mprgp, RandomProgramsMatchAnIndependentSolve) {
       worst_iterations[0], worst_iterations[1]);
 }
 
+// Random box programs (>= 0, free, intervals, fixed), a duplicated column in half of them:
+// projected Newton's active-set steps reach the reference, by themselves (no MPRGP hand-over).
+TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  int worst = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    SeparableSet set;
+    const int blocks = 3 + trial % 9;
+    for (int k = 0; k < blocks; ++k) {
+      switch ((trial + k) % 4) {
+        case 0:
+          set.add(BlockSet::NonNegative, 1);
+          break;
+        case 1:
+          set.add(BlockSet::Free, 1);
+          break;
+        case 2:
+          set.add(BlockSet::Ball, 1, 0.3 + 0.5 * std::abs(uniform(rng)));
+          break;
+        default:
+          set.add(k % 2 ? BlockSet::Fixed : BlockSet::NonNegative, 1);
+      }
+    }
+    ASSERT_TRUE(projectedNewtonApplies(set));
+    const int n = set.variables;
+    const bool redundant = trial % 2 == 1;
+    MatrixX B(n + 2, n);
+    for (int i = 0; i < B.rows(); ++i)
+      for (int j = 0; j < n; ++j) B(i, j) = uniform(rng);
+    if (redundant) B.col(n - 1) = B.col(0);
+    VectorX b(n);
+    for (int j = 0; j < n; ++j) b[j] = 2.0 * uniform(rng);
+    if (redundant) {
+      for (int k = 0; k < set.blocks(); ++k)
+        if (set.set[k] == BlockSet::Free) b[set.first[k]] = 0.0;
+      b[n - 1] = b[0];
+    }
+    const DenseProgram program(B, b);
+    const std::vector<double> reference = referenceSolve(program, set);
+    const double f_ref = program.objective(reference);
+    const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
+    MprgpSettings settings;
+    settings.tolerance = 1e-12;
+    settings.max_iterations = 5000;
+    std::vector<double> x(n, 0.0);
+    VectorX v = VectorX::Zero(B.rows());
+    ProjectedNewtonWorkspace ws;
+    MprgpWorkspace fallback;
+    const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+    ASSERT_TRUE(stats.converged) << "trial " << trial << " residual " << stats.residual;
+    EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed to MPRGP, trial " << trial;
+    worst = std::max(worst, stats.iterations);
+    std::vector<double> projected = x;
+    projectReference(set, projected);
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(projected[i], x[i], 1e-12) << trial;
+    const VectorX xv = Eigen::Map<VectorX>(x.data(), n);
+    EXPECT_LT((v - B * xv).norm(), 1e-12 * (1.0 + v.norm())) << trial;
+    EXPECT_LE(program.objective(x), f_ref + 1e-10 * (1.0 + std::abs(f_ref))) << trial;
+    EXPECT_LT((v - v_ref).norm(), 1e-6 * (1.0 + v_ref.norm())) << trial;
+    // warm-started from its own answer, one step keeps it
+    const std::vector<double> answer = x;
+    std::fill(x.begin(), x.end(), 0.0);
+    x = answer;
+    v.setZero();
+    const MprgpStats again = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+    EXPECT_TRUE(again.converged);
+    EXPECT_EQ(again.iterations, 1) << trial;
+  }
+  std::printf("random box programs to 1e-12: at most %d projected Newton steps\n", worst);
+}
+
 // Stage 5a on a settled 150-disk pile and on a 120-sphere powder heap: the velocities are
 // unique; MPRGP reaches NLGS's to the tolerance in fewer iterations than NLGS's sweeps.
 TEST(ConvexStages, NormalStageMatchesNlgs) {
@@ -180,7 +264,7 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
     solver.tolerance = 1e-10;
     std::vector<VectorX> velocities;
     std::vector<int> iterations;
-    for (StageSolver method : {StageSolver::Nlgs, StageSolver::Mprgp}) {
+    for (StageSolver method : {StageSolver::Nlgs, StageSolver::Mprgp, StageSolver::Newton}) {
       solver.solver = method;
       std::vector<double> lambda_N(p.size(), 0.0);
       VectorX v = settled.step.v_free;
@@ -190,11 +274,15 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
       velocities.push_back(v);
       iterations.push_back(stats.iterations);
     }
-    std::printf("stage 5a, %d contacts (%s), cold, to 1e-10: NLGS %d sweeps, MPRGP %d iterations\n",
-                p.size(), spheres ? "spheres" : "disks", iterations[0], iterations[1]);
+    std::printf(
+        "stage 5a, %d contacts (%s), cold, to 1e-10: NLGS %d sweeps, MPRGP %d iterations, "
+        "projected Newton %d steps\n",
+        p.size(), spheres ? "spheres" : "disks", iterations[0], iterations[1], iterations[2]);
     const double scale = (velocities[0] - settled.step.v_free).norm();
     EXPECT_LT((velocities[1] - velocities[0]).norm(), 1e-6 * scale);
+    EXPECT_LT((velocities[2] - velocities[0]).norm(), 1e-6 * scale);
     EXPECT_LT(iterations[1], iterations[0]);
+    EXPECT_LT(iterations[2], iterations[1]);
   }
 }
 
@@ -220,49 +308,54 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
     std::vector<double> lambda_N(p.size(), 0.0);
     VectorX v1 = settled.step.v_free;
     ASSERT_EQ(solveNormalStage(p, convex, lambda_N, v1, ws).status, SolverStatus::Converged);
-    for (TangentMode mode : {TangentMode::Global, TangentMode::Local, TangentMode::None}) {
-      FrictionStageOptions options;
-      options.tangents = mode;
-      std::vector<double> delta(p.size(), 0.0);
-      std::vector<Vector2> lambda_T(p.size(), Vector2::Zero());
-      std::vector<Vector2> R(p.size(), Vector2::Zero());
-      std::vector<Vector2>* rolling = p.rolling ? &R : nullptr;
-      VectorX v = v1;
-      const NlgsStats stats =
-          solveFrictionStage(p, convex, options, lambda_N, delta, lambda_T, v, ws, rolling);
-      EXPECT_EQ(stats.status, SolverStatus::Converged) << tangentModeName(mode);
-      for (int c = 0; c < p.size(); ++c) {
-        EXPECT_LE(lambda_T[c].norm(), p.friction[c] * lambda_N[c] * (1.0 + 1e-12) + 1e-30);
+    // the active-set Newton solver takes box sets only: the 2D intervals
+    for (TangentMode mode : {TangentMode::Global, TangentMode::Local, TangentMode::None})
+      for (StageSolver method : {StageSolver::Mprgp, StageSolver::Newton}) {
+        // spheres: GLOBAL with MPRGP/APGD only; the disks cover the other modes and Newton
+        if (spheres && (method == StageSolver::Newton || mode != TangentMode::Global)) continue;
+        convex.solver = method;
+        FrictionStageOptions options;
+        options.tangents = mode;
+        std::vector<double> delta(p.size(), 0.0);
+        std::vector<Vector2> lambda_T(p.size(), Vector2::Zero());
+        std::vector<Vector2> R(p.size(), Vector2::Zero());
+        std::vector<Vector2>* rolling = p.rolling ? &R : nullptr;
+        VectorX v = v1;
+        const NlgsStats stats =
+            solveFrictionStage(p, convex, options, lambda_N, delta, lambda_T, v, ws, rolling);
+        EXPECT_EQ(stats.status, SolverStatus::Converged) << tangentModeName(mode);
+        for (int c = 0; c < p.size(); ++c) {
+          EXPECT_LE(lambda_T[c].norm(), p.friction[c] * lambda_N[c] * (1.0 + 1e-12) + 1e-30);
+        }
+        const double change = (v - v1).norm();
+        ASSERT_GT(change, 0.0);
+        NlgsSettings nlgs;
+        nlgs.tolerance = 1e-7;
+        nlgs.max_iterations = spheres ? 20000 : 1;
+        std::vector<double> delta_nlgs = delta;
+        std::vector<Vector2> lambda_T_nlgs = lambda_T, R_nlgs = R;
+        if (spheres) {
+          std::fill(delta_nlgs.begin(), delta_nlgs.end(), 0.0);
+          std::fill(lambda_T_nlgs.begin(), lambda_T_nlgs.end(), Vector2::Zero());
+          std::fill(R_nlgs.begin(), R_nlgs.end(), Vector2::Zero());
+        }
+        VectorX v_nlgs = v1;
+        const NlgsStats check =
+            solveFrictionStage(p, nlgs, options, lambda_N, delta_nlgs, lambda_T_nlgs, v_nlgs, ws,
+                               p.rolling ? &R_nlgs : nullptr);
+        std::printf(
+            "stage 5b %s, %d contacts (%s): %s %d iterations to 1e-10; NLGS %s %.2e, "
+            "velocities %.2e apart (relative to the change)\n",
+            tangentModeName(mode), p.size(), spheres ? "spheres" : "disks", stageSolverName(method),
+            stats.iterations, spheres ? "cold, residual" : "one sweep from it, residual",
+            check.residual, (v_nlgs - v).norm() / change);
+        if (spheres) {
+          EXPECT_LT((v_nlgs - v).norm(), 1e-4 * change);
+          continue;
+        }
+        EXPECT_LT(check.residual, 1e-8) << tangentModeName(mode);
+        EXPECT_LT((v_nlgs - v).norm(), 1e-5 * change) << tangentModeName(mode);
       }
-      const double change = (v - v1).norm();
-      ASSERT_GT(change, 0.0);
-      NlgsSettings nlgs;
-      nlgs.tolerance = 1e-7;
-      nlgs.max_iterations = spheres ? 20000 : 1;
-      std::vector<double> delta_nlgs = delta;
-      std::vector<Vector2> lambda_T_nlgs = lambda_T, R_nlgs = R;
-      if (spheres) {
-        std::fill(delta_nlgs.begin(), delta_nlgs.end(), 0.0);
-        std::fill(lambda_T_nlgs.begin(), lambda_T_nlgs.end(), Vector2::Zero());
-        std::fill(R_nlgs.begin(), R_nlgs.end(), Vector2::Zero());
-      }
-      VectorX v_nlgs = v1;
-      const NlgsStats check =
-          solveFrictionStage(p, nlgs, options, lambda_N, delta_nlgs, lambda_T_nlgs, v_nlgs, ws,
-                             p.rolling ? &R_nlgs : nullptr);
-      std::printf(
-          "stage 5b %s, %d contacts (%s): convex %d iterations to 1e-10; NLGS %s %.2e, "
-          "velocities %.2e apart (relative to the change)\n",
-          tangentModeName(mode), p.size(), spheres ? "spheres" : "disks", stats.iterations,
-          spheres ? "cold, residual" : "one sweep from it, residual", check.residual,
-          (v_nlgs - v).norm() / change);
-      if (spheres) {
-        EXPECT_LT((v_nlgs - v).norm(), 1e-4 * change);
-        break;  // LOCAL and NONE: the disks cover them
-      }
-      EXPECT_LT(check.residual, 1e-8) << tangentModeName(mode);
-      EXPECT_LT((v_nlgs - v).norm(), 1e-5 * change) << tangentModeName(mode);
-    }
   }
 }
 

@@ -1,0 +1,438 @@
+#include "integrators/projected_newton.hpp"
+
+#include <cholmod.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sweep {
+
+namespace {
+
+// Newton steps before the solve is handed to MPRGP: the face changes a warm-started solve
+// needs are a handful; more means a program the Newton steps do not suit (no solution, or a
+// face that cycles)
+constexpr int kMaxNewton = 50;
+// the identity added to A_FF, in units of the unit diagonal (see projected_newton.hpp)
+constexpr double kRegularization = 1e-10;
+// the largest binding margin eps (unit-diagonal units)
+constexpr double kBindingMargin = 1e-3;
+constexpr double kArmijo = 1e-4;
+constexpr int kMaxHalvings = 40;
+// block pivots without fewer infeasible variables before single pivots (Judice & Pires' p)
+constexpr int kPivotTries = 3;
+constexpr char kFree = 0, kLower = 1, kUpper = 2;
+
+}  // namespace
+
+// CHOLMOD's common block, the symbolic and numeric factor of the current pattern, and the
+// dense vectors of its solves, all kept between solves so that a step reuses their memory.
+class SparseCholesky {
+ public:
+  SparseCholesky() {
+    cholmod_start(&common_);
+    common_.print = 0;
+    common_.error_handler = nullptr;
+    // AMD alone: on contact networks of up to 10^4 rows it orders in a fraction of one
+    // factorization, where the default's METIS trial costs several
+    common_.nmethods = 1;
+    common_.method[0].ordering = CHOLMOD_AMD;
+    common_.postorder = 1;
+    // simplicial factors need no BLAS, whose threaded builds would make the bits depend on
+    // the machine; the contact networks' factors are too sparse for supernodes to pay
+    common_.supernodal = CHOLMOD_SIMPLICIAL;
+    common_.final_ll = 0;
+  }
+  ~SparseCholesky() {
+    release();
+    cholmod_free_dense(&x_, &common_);
+    cholmod_free_dense(&y_, &common_);
+    cholmod_free_dense(&e_, &common_);
+    cholmod_finish(&common_);
+  }
+  SparseCholesky(const SparseCholesky&) = delete;
+  SparseCholesky& operator=(const SparseCholesky&) = delete;
+
+  void release() {
+    if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
+  }
+
+  // the symbolic factorization of the lower triangle (begin, row) of an n x n matrix
+  bool analyze(int n, std::vector<int>& begin, std::vector<int>& row, std::vector<double>& value) {
+    release();
+    view(n, begin, row, value);
+    factor_ = cholmod_analyze(&matrix_, &common_);
+    return factor_ != nullptr && common_.status == CHOLMOD_OK;
+  }
+  bool factorize(std::vector<double>& value) {
+    matrix_.x = value.data();
+    const int ok = cholmod_factorize(&matrix_, factor_, &common_);
+    return ok && common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
+  }
+  // solution = A^-1 rhs
+  bool solve(std::vector<double>& rhs, std::vector<double>& solution) {
+    cholmod_dense b{};
+    b.nrow = rhs.size();
+    b.ncol = 1;
+    b.nzmax = rhs.size();
+    b.d = rhs.size();
+    b.x = rhs.data();
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    if (!cholmod_solve2(CHOLMOD_A, factor_, &b, nullptr, &x_, nullptr, &y_, &e_, &common_))
+      return false;
+    const double* x = static_cast<const double*>(x_->x);
+    std::copy(x, x + rhs.size(), solution.begin());
+    return true;
+  }
+
+ private:
+  void view(int n, std::vector<int>& begin, std::vector<int>& row, std::vector<double>& value) {
+    matrix_ = cholmod_sparse{};
+    matrix_.nrow = matrix_.ncol = static_cast<size_t>(n);
+    matrix_.nzmax = row.size();
+    matrix_.p = begin.data();
+    matrix_.i = row.data();
+    matrix_.x = value.data();
+    matrix_.stype = -1;  // the lower triangle
+    matrix_.itype = CHOLMOD_INT;
+    matrix_.xtype = CHOLMOD_REAL;
+    matrix_.dtype = CHOLMOD_DOUBLE;
+    matrix_.sorted = 1;
+    matrix_.packed = 1;
+  }
+
+  cholmod_common common_{};
+  cholmod_sparse matrix_{};
+  cholmod_factor* factor_ = nullptr;
+  cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
+};
+
+ProjectedNewtonWorkspace::ProjectedNewtonWorkspace() = default;
+ProjectedNewtonWorkspace::~ProjectedNewtonWorkspace() = default;
+ProjectedNewtonWorkspace::ProjectedNewtonWorkspace(ProjectedNewtonWorkspace&&) noexcept = default;
+ProjectedNewtonWorkspace& ProjectedNewtonWorkspace::operator=(ProjectedNewtonWorkspace&&) noexcept =
+    default;
+
+bool projectedNewtonApplies(const SeparableSet& set) {
+  for (int b = 0; b < set.blocks(); ++b)
+    if (set.size[b] != 1 && effectiveSet(set, b) != BlockSet::Fixed) return false;
+  return true;
+}
+
+namespace {
+
+// A = J^T K, lower triangle: Gustavson's product over J by velocity.
+void formProduct(ProjectedNewtonWorkspace& ws, int n, int velocities) {
+  const SparseColumns &J = ws.J, &K = ws.K;
+  // J by velocity (a counting sort of its entries)
+  ws.by_dof_begin.assign(velocities + 1, 0);
+  for (int r : J.row) ++ws.by_dof_begin[r + 1];
+  for (int k = 0; k < velocities; ++k) ws.by_dof_begin[k + 1] += ws.by_dof_begin[k];
+  ws.by_dof_variable.resize(J.row.size());
+  ws.by_dof_value.resize(J.row.size());
+  ws.touched.assign(ws.by_dof_begin.begin(), ws.by_dof_begin.end() - 1);  // fill positions
+  for (int j = 0; j < n; ++j)
+    for (int e = J.begin[j]; e < J.begin[j + 1]; ++e) {
+      const int slot = ws.touched[J.row[e]]++;
+      ws.by_dof_variable[slot] = j;
+      ws.by_dof_value[slot] = J.value[e];
+    }
+  // column j of A: sum over K's entries (k, K_kj) of J's row k times K_kj, rows i >= j
+  ws.accumulator.assign(n, 0.0);
+  ws.marker.assign(n, -1);
+  ws.touched.clear();
+  ws.a_begin.assign(1, 0);
+  ws.a_row.clear();
+  ws.a_value.clear();
+  for (int j = 0; j < n; ++j) {
+    ws.touched.clear();
+    ws.marker[j] = j;  // the diagonal always, so that every column has a pivot
+    ws.touched.push_back(j);
+    for (int e = K.begin[j]; e < K.begin[j + 1]; ++e) {
+      const int k = K.row[e];
+      const double kv = K.value[e];
+      for (int s = ws.by_dof_begin[k]; s < ws.by_dof_begin[k + 1]; ++s) {
+        const int i = ws.by_dof_variable[s];
+        if (i < j) continue;
+        if (ws.marker[i] != j) {
+          ws.marker[i] = j;
+          ws.touched.push_back(i);
+        }
+        ws.accumulator[i] += ws.by_dof_value[s] * kv;
+      }
+    }
+    std::sort(ws.touched.begin(), ws.touched.end());
+    for (int i : ws.touched) {
+      ws.a_row.push_back(i);
+      ws.a_value.push_back(ws.accumulator[i]);
+      ws.accumulator[i] = 0.0;
+    }
+    ws.a_begin.push_back(static_cast<int>(ws.a_row.size()));
+  }
+}
+
+// y = A x + b from the lower triangle
+void gradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
+              std::vector<double>& y) {
+  const int n = static_cast<int>(x.size());
+  std::copy(ws.b.begin(), ws.b.end(), y.begin());
+  for (int j = 0; j < n; ++j)
+    for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
+      const int i = ws.a_row[e];
+      const double a = ws.a_value[e];
+      y[i] += a * x[j];
+      if (i != j) y[j] += a * x[i];
+    }
+}
+
+// f = 1/2 x^T A x + b^T x from g = A x + b
+double objective(const std::vector<double>& x, const std::vector<double>& g,
+                 const std::vector<double>& b) {
+  double f = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) f += 0.5 * x[i] * (g[i] + b[i]);
+  return f;
+}
+
+// the variables of blocks on a bound that the gradient pushes outwards (eps: the margin)
+void markBinding(const SeparableSet& set, const std::vector<double>& x,
+                 const std::vector<double>& g, double eps, std::vector<char>& binding) {
+  for (int b = 0; b < set.blocks(); ++b) {
+    const int i = set.first[b];
+    switch (effectiveSet(set, b)) {
+      case BlockSet::Fixed:
+        for (int k = 0; k < set.size[b]; ++k) binding[i + k] = 1;
+        break;
+      case BlockSet::Free:
+        binding[i] = 0;
+        break;
+      case BlockSet::NonNegative:
+        binding[i] = x[i] <= eps && g[i] > 0.0;
+        break;
+      case BlockSet::Ball: {
+        const double r = set.radius[b];
+        binding[i] = (x[i] >= r - eps && g[i] < 0.0) || (x[i] <= -r + eps && g[i] > 0.0);
+        break;
+      }
+    }
+  }
+}
+
+// the bounds of variable i's box (+-inf where open)
+void boundsOf(const SeparableSet& set, int b, double& low, double& high) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  switch (effectiveSet(set, b)) {
+    case BlockSet::Fixed:
+      low = high = 0.0;
+      return;
+    case BlockSet::Free:
+      low = -inf;
+      high = inf;
+      return;
+    case BlockSet::NonNegative:
+      low = 0.0;
+      high = inf;
+      return;
+    case BlockSet::Ball:
+      low = -set.radius[b];
+      high = set.radius[b];
+      return;
+  }
+}
+
+// the reduced matrix: A + rho I on the free variables, the identity on the others
+void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>& fixed) {
+  for (int j = 0; j < n; ++j)
+    for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
+      const int i = ws.a_row[e];
+      if (fixed[i] || fixed[j])
+        ws.factor_value[e] = i == j ? 1.0 : 0.0;
+      else
+        ws.factor_value[e] = ws.a_value[e] + (i == j ? kRegularization : 0.0);
+    }
+}
+
+}  // namespace
+
+MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
+                                const MprgpSettings& settings, std::vector<double>& x, VectorX& v,
+                                ProjectedNewtonWorkspace& ws, MprgpWorkspace& fallback) {
+  const int n = set.variables;
+  MprgpStats stats;
+  x.resize(n);
+  ws.J.clear();
+  ws.K.clear();
+  if (n == 0 || !op.columns(ws.J, ws.K) || ws.J.columns() != n || ws.K.columns() != n)
+    return solveMprgp(op, set, settings, x, v, fallback);
+  project(set, x);
+  for (std::vector<double>* w : {&ws.b, &ws.g, &ws.d, &ws.x_trial, &ws.g_trial}) w->resize(n);
+  ws.binding.resize(n);
+  op.toGradient(v, true, ws.b);  // b: the gradient at x = 0
+  stats.products = 1;
+  formProduct(ws, n, static_cast<int>(v.size()));
+  if (!ws.cholesky) ws.cholesky = std::make_unique<SparseCholesky>();
+  ws.factor_value.resize(ws.a_value.size());
+  bool usable = ws.cholesky->analyze(n, ws.a_begin, ws.a_row, ws.factor_value);
+
+  gradient(ws, x, ws.g);
+  const int newton_cap = std::min(kMaxNewton, settings.max_iterations);
+  ws.lower.resize(n);
+  ws.upper.resize(n);
+  for (int b = 0; b < set.blocks(); ++b)
+    for (int k = 0; k < set.size[b]; ++k)
+      boundsOf(set, b, ws.lower[set.first[b] + k], ws.upper[set.first[b] + k]);
+  ws.side.resize(n);
+  ws.x_best = x;
+  // the warm start is not kept as it is: at least one step, as MPRGP takes one iteration
+  double best = std::numeric_limits<double>::infinity();
+  int fewest_infeasible = 0, tries = 0;
+  // sides from a feasible point x and its gradient: held where x - g leaves the box
+  auto sidesFrom = [&]() {
+    for (int i = 0; i < n; ++i) {
+      const double y = x[i] - ws.g[i];
+      ws.side[i] = y <= ws.lower[i] ? kLower : y >= ws.upper[i] ? kUpper : kFree;
+    }
+    fewest_infeasible = n + 1;
+    tries = kPivotTries;
+  };
+  // factorizes the matrix reduced to the variables not in `held` and solves for -g there
+  auto newtonDirection = [&]() {
+    reducedMatrix(ws, n, ws.binding);
+    for (int i = 0; i < n; ++i) ws.g_trial[i] = ws.binding[i] ? 0.0 : -ws.g[i];
+    ++stats.iterations;
+    return ws.cholesky->factorize(ws.factor_value) && ws.cholesky->solve(ws.g_trial, ws.d);
+  };
+  auto keepIfBest = [&](const std::vector<double>& xp, const std::vector<double>& gp) {
+    const double residual = naturalResidual(set, xp, gp);
+    if (residual < best) {
+      best = residual;
+      ws.x_best = xp;
+    }
+  };
+
+  // One block-pivoting step (Judice & Pires 1994, "A block principal pivoting algorithm for
+  // large-scale strictly monotone linear complementarity problems", Comput. Oper. Res. 21; the
+  // primal-dual active set method of Hintermueller, Ito & Kunisch 2003): each variable is free
+  // or held at one of its bounds; the free ones solve A_II x_I = -b_I - A_IA x_A exactly,
+  // without projection; then every infeasible variable changes side at once (a free one
+  // outside its box goes to the bound it passed, a held one whose gradient points into the
+  // box is freed). The count follows the face changes, not the depth of the network. Returns
+  // false when the number of infeasible variables has not fallen for kPivotTries steps: such
+  // steps can cycle when A is not an M-matrix.
+  auto pivotStep = [&]() {
+    for (int i = 0; i < n; ++i) {
+      ws.binding[i] = ws.side[i] != kFree;
+      if (ws.side[i] == kLower) x[i] = ws.lower[i];
+      if (ws.side[i] == kUpper) x[i] = ws.upper[i];
+    }
+    gradient(ws, x, ws.g);
+    if (!newtonDirection()) return usable = false;
+    for (int i = 0; i < n; ++i)
+      if (!ws.binding[i]) x[i] += ws.d[i];
+    gradient(ws, x, ws.g);
+    ws.x_trial = x;  // the projected iterate is what is measured and kept
+    project(set, ws.x_trial);
+    gradient(ws, ws.x_trial, ws.g_trial);
+    keepIfBest(ws.x_trial, ws.g_trial);
+    int infeasible = 0;
+    for (int i = 0; i < n; ++i) {
+      const bool wrong = ws.side[i] == kFree    ? x[i] < ws.lower[i] || x[i] > ws.upper[i]
+                         : ws.side[i] == kLower ? ws.g[i] < 0.0
+                                                : ws.g[i] > 0.0;
+      if (wrong) {
+        ++infeasible;
+        ws.side[i] = ws.side[i] != kFree ? kFree : x[i] < ws.lower[i] ? kLower : kUpper;
+      }
+    }
+    if (infeasible < fewest_infeasible) {
+      fewest_infeasible = infeasible;
+      tries = kPivotTries;
+      return true;
+    }
+    return --tries > 0;
+  };
+
+  // One projected Newton step from the feasible x (Bertsekas 1982): the binding set (within
+  // eps = min(1e-3, |x - P(x - g)|) of a bound, the gradient pointing out) takes a gradient
+  // step, the others the Newton step, and a projected line search on f follows. Monotone in
+  // f, it breaks the pivots' cycles.
+  auto projectedStep = [&]() {
+    double w2 = 0.0;
+    for (int i = 0; i < n; ++i) ws.x_trial[i] = x[i] - ws.g[i];
+    project(set, ws.x_trial);
+    for (int i = 0; i < n; ++i) w2 += (x[i] - ws.x_trial[i]) * (x[i] - ws.x_trial[i]);
+    markBinding(set, x, ws.g, std::min(kBindingMargin, std::sqrt(w2)), ws.binding);
+    if (!newtonDirection()) return usable = false;
+    for (int i = 0; i < n; ++i)
+      if (ws.binding[i]) ws.d[i] = -ws.g[i];
+    const double f = objective(x, ws.g, ws.b);
+    double alpha = 1.0;
+    for (int halving = 0; halving <= kMaxHalvings; ++halving, alpha *= 0.5) {
+      for (int i = 0; i < n; ++i) ws.x_trial[i] = x[i] + alpha * ws.d[i];
+      project(set, ws.x_trial);
+      double slope = 0.0;
+      for (int i = 0; i < n; ++i) slope += ws.g[i] * (ws.x_trial[i] - x[i]);
+      gradient(ws, ws.x_trial, ws.g_trial);
+      if (slope <= 0.0 && objective(ws.x_trial, ws.g_trial, ws.b) <= f + kArmijo * slope) {
+        x.swap(ws.x_trial);
+        ws.g.swap(ws.g_trial);
+        keepIfBest(x, ws.g);
+        return true;
+      }
+    }
+    return usable = false;  // no descent: no solution along the Newton direction
+  };
+
+  sidesFrom();
+  bool pivoting = true;
+  while (usable && stats.iterations < newton_cap && !(best <= settings.tolerance)) {
+    if (pivoting) {
+      pivoting = pivotStep();
+      if (!pivoting && usable) {  // from the best feasible point, monotone steps
+        x = ws.x_best;
+        gradient(ws, x, ws.g);
+      }
+    } else if (projectedStep()) {
+      sidesFrom();
+      pivoting = true;
+    }
+  }
+  x = ws.x_best;
+  const bool converged = best <= settings.tolerance && stats.iterations > 0;
+  stats.newton_steps = stats.iterations;
+
+  // the answer, and its residual measured as MPRGP measures it (through the operator), in
+  // z_trial so that a fallback starts from v as given
+  fallback.prepare(n, static_cast<int>(v.size()));
+  op.toVelocity(x, fallback.z);
+  VectorX &z = fallback.z, &v_x = fallback.z_trial;
+  const std::vector<int>* dofs = op.dofs();
+  if (dofs != nullptr)
+    for (int k : *dofs) v_x[k] = v[k] + z[k];
+  else
+    v_x = v + z;
+  op.toGradient(v_x, true, ws.g);
+  stats.products += 2;
+  stats.residual = naturalResidual(set, x, ws.g);
+  stats.converged = converged && stats.residual <= settings.tolerance;
+  if (stats.converged) {
+    if (dofs != nullptr)
+      for (int k : *dofs) v[k] = v_x[k];
+    else
+      v = v_x;
+    return stats;
+  }
+
+  // MPRGP from the last iterate
+  MprgpSettings rest = settings;
+  rest.max_iterations = std::max(1, settings.max_iterations - stats.iterations);
+  const MprgpStats finish = solveMprgp(op, set, rest, x, v, fallback);
+  MprgpStats total = finish;
+  total.iterations += stats.iterations;
+  total.products += stats.products;
+  total.newton_steps = stats.newton_steps;
+  return total;
+}
+
+}  // namespace sweep

@@ -1,0 +1,70 @@
+#pragma once
+// Active-set Newton solver with a sparse Cholesky factorization, for the programs of mprgp.hpp
+// whose sets are all boxes (fixed, free, >= 0, intervals):
+//
+//   min_x  f(x) = 1/2 x^T A x + b^T x,   lower <= x <= upper,   A = J^T K = E^T H^T M^-1 H E,
+//
+// A formed explicitly from the operator's columns (QpOperator::columns), its pattern analysed
+// once per solve (SuiteSparse CHOLMOD, AMD ordering, simplicial LDL^T). Two kinds of step, each
+// one numeric factorization of A reduced to the free variables (the others' rows and columns
+// replaced by the identity, so every step refactors the same pattern; + 1e-10 I on the free
+// ones keeps a singular A_FF, i.e. redundant rows, factorizable):
+//   - block principal pivoting (Judice & Pires 1994, Comput. Oper. Res. 21; the primal-dual
+//     active set method of Hintermueller, Ito & Kunisch 2003, SIAM J. Optim. 13): each
+//     variable is free or held at a bound; the free ones solve A_FF x_F = -b_F - A_FH x_H
+//     exactly, then every infeasible variable changes side at once. The number of steps
+//     follows the face changes, not the conditioning of A, so it does not grow with the depth
+//     of a pile where CG's grows like sqrt(cond A);
+//   - when pivoting has not reduced the number of infeasible variables for 3 steps (it can
+//     cycle when A is not an M-matrix), a projected Newton step from the best point so far
+//     (Bertsekas 1982, SIAM J. Control Optim. 20): Newton on the variables not binding within
+//     eps = min(1e-3, |x - P(x - g)|), a gradient step on the binding ones, a projected Armijo
+//     line search; monotone in f, it breaks the cycle, and pivoting resumes from there.
+// The solve is handed to MPRGP (solveMprgp, warm-started from the best iterate, with the
+// remaining iteration budget) when a factorization fails, the line search finds no descent
+// (no solution: the dual falls without bound) or 50 factorizations did not converge.
+// Stop: mprgp.hpp's natural-map residual, recomputed at the end through the operator.
+// Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
+// 3D contact network: it pays where CG needs many iterations (deep piles, tight tolerances).
+#include <memory>
+#include <vector>
+
+#include "integrators/mprgp.hpp"
+
+namespace sweep {
+
+class SparseCholesky;  // CHOLMOD's state (projected_newton.cpp)
+
+struct ProjectedNewtonWorkspace {
+  ProjectedNewtonWorkspace();
+  ~ProjectedNewtonWorkspace();
+  ProjectedNewtonWorkspace(ProjectedNewtonWorkspace&&) noexcept;
+  ProjectedNewtonWorkspace& operator=(ProjectedNewtonWorkspace&&) noexcept;
+
+  SparseColumns J, K;  // H E and M^-1 H E, one column per variable
+  // J by velocity: the variables whose column has an entry at velocity k, and that entry
+  std::vector<int> by_dof_begin, by_dof_variable;
+  std::vector<double> by_dof_value;
+  // A = J^T K, lower triangle, compressed columns with sorted rows; the factorized values
+  std::vector<int> a_begin, a_row;
+  std::vector<double> a_value, factor_value;
+  std::vector<double> accumulator;
+  std::vector<int> marker, touched;
+  std::vector<double> b, g, d, x_trial, g_trial;
+  std::vector<char> binding, side;
+  std::vector<double> lower, upper, x_best;
+  std::unique_ptr<SparseCholesky> cholesky;
+};
+
+// Whether solveProjectedNewton takes this program: every block a box, and the operator's
+// columns available.
+bool projectedNewtonApplies(const SeparableSet& set);
+
+// Same contract as solveMprgp: x in a warm start, out the solution; v in the velocity at
+// x = 0, out at the solution. stats.iterations counts factorized steps (stats.newton_steps)
+// plus the MPRGP hand-over's iterations.
+MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
+                                const MprgpSettings& settings, std::vector<double>& x, VectorX& v,
+                                ProjectedNewtonWorkspace& ws, MprgpWorkspace& fallback);
+
+}  // namespace sweep
