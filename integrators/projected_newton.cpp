@@ -20,8 +20,6 @@ constexpr double kRegularization = 1e-10;
 constexpr double kBindingMargin = 1e-3;
 constexpr double kArmijo = 1e-4;
 constexpr int kMaxHalvings = 40;
-// block pivots without fewer infeasible variables before single pivots (Judice & Pires' p)
-constexpr int kPivotTries = 3;
 constexpr char kFree = 0, kLower = 1, kUpper = 2;
 
 }  // namespace
@@ -286,15 +284,12 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   ws.x_best = x;
   // the warm start is not kept as it is: at least one step, as MPRGP takes one iteration
   double best = std::numeric_limits<double>::infinity();
-  int fewest_infeasible = 0, tries = 0;
-  // sides from a feasible point x and its gradient: held where x - g leaves the box
+  // sides from x and its gradient: held at the bound where x - g leaves the box
   auto sidesFrom = [&]() {
     for (int i = 0; i < n; ++i) {
       const double y = x[i] - ws.g[i];
       ws.side[i] = y <= ws.lower[i] ? kLower : y >= ws.upper[i] ? kUpper : kFree;
     }
-    fewest_infeasible = n + 1;
-    tries = kPivotTries;
   };
   // factorizes the matrix reduced to the variables not in `held` and solves for -g there
   auto newtonDirection = [&]() {
@@ -311,16 +306,24 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
     }
   };
 
-  // One block-pivoting step (Judice & Pires 1994, "A block principal pivoting algorithm for
-  // large-scale strictly monotone linear complementarity problems", Comput. Oper. Res. 21; the
-  // primal-dual active set method of Hintermueller, Ito & Kunisch 2003): each variable is free
-  // or held at one of its bounds; the free ones solve A_II x_I = -b_I - A_IA x_A exactly,
-  // without projection; then every infeasible variable changes side at once (a free one
-  // outside its box goes to the bound it passed, a held one whose gradient points into the
-  // box is freed). The count follows the face changes, not the depth of the network. Returns
-  // false when the number of infeasible variables has not fallen for kPivotTries steps: such
-  // steps can cycle when A is not an M-matrix.
-  auto pivotStep = [&]() {
+  // squared natural map |x - clamp(x - g)|^2, defined at infeasible x too
+  auto merit = [&](const std::vector<double>& xp, const std::vector<double>& gp) {
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double r = xp[i] - std::clamp(xp[i] - gp[i], ws.lower[i], ws.upper[i]);
+      sum += r * r;
+    }
+    return sum;
+  };
+  // One semismooth Newton step on the natural map F(x) = x - P(x - g(x)) (the primal-dual
+  // active set step of Hintermueller, Ito & Kunisch 2003, damped): sides from x - g, the
+  // face's exact solution as the full step, halved until |F| falls by the Armijo factor.
+  // Returns false, x back at the best point, when no step length lowers |F|.
+  auto semismoothStep = [&]() {
+    sidesFrom();
+    ws.x_prev = x;
+    ws.g_prev = ws.g;
+    const double f0 = merit(x, ws.g);
     for (int i = 0; i < n; ++i) {
       ws.binding[i] = ws.side[i] != kFree;
       if (ws.side[i] == kLower) x[i] = ws.lower[i];
@@ -331,32 +334,38 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
     for (int i = 0; i < n; ++i)
       if (!ws.binding[i]) x[i] += ws.d[i];
     gradient(ws, x, ws.g);
-    ws.x_trial = x;  // the projected iterate is what is measured and kept
+    // the full step, projected, may already be the answer (the line search's test cannot see
+    // a decrease below round-off)
+    ws.x_trial = x;
     project(set, ws.x_trial);
     gradient(ws, ws.x_trial, ws.g_trial);
     keepIfBest(ws.x_trial, ws.g_trial);
-    int infeasible = 0;
-    for (int i = 0; i < n; ++i) {
-      const bool wrong = ws.side[i] == kFree    ? x[i] < ws.lower[i] || x[i] > ws.upper[i]
-                         : ws.side[i] == kLower ? ws.g[i] < 0.0
-                                                : ws.g[i] > 0.0;
-      if (wrong) {
-        ++infeasible;
-        ws.side[i] = ws.side[i] != kFree ? kFree : x[i] < ws.lower[i] ? kLower : kUpper;
+    if (best <= settings.tolerance) return true;
+    double t = 1.0;
+    for (int halving = 0; halving <= kMaxHalvings; ++halving, t *= 0.5) {
+      for (int i = 0; i < n; ++i) {
+        ws.x_trial[i] = ws.x_prev[i] + t * (x[i] - ws.x_prev[i]);
+        ws.g_trial[i] = ws.g_prev[i] + t * (ws.g[i] - ws.g_prev[i]);
+      }
+      if (merit(ws.x_trial, ws.g_trial) <= (1.0 - kArmijo * t) * f0) {
+        x.swap(ws.x_trial);
+        ws.g.swap(ws.g_trial);
+        ws.x_trial = x;
+        project(set, ws.x_trial);
+        gradient(ws, ws.x_trial, ws.g_trial);
+        keepIfBest(ws.x_trial, ws.g_trial);
+        return true;
       }
     }
-    if (infeasible < fewest_infeasible) {
-      fewest_infeasible = infeasible;
-      tries = kPivotTries;
-      return true;
-    }
-    return --tries > 0;
+    x = ws.x_best;
+    gradient(ws, x, ws.g);
+    return false;
   };
 
   // One projected Newton step from the feasible x (Bertsekas 1982): the binding set (within
   // eps = min(1e-3, |x - P(x - g)|) of a bound, the gradient pointing out) takes a gradient
   // step, the others the Newton step, and a projected line search on f follows. Monotone in
-  // f, it breaks the pivots' cycles.
+  // f: where the damped semismooth step stalls, it still descends.
   auto projectedStep = [&]() {
     double w2 = 0.0;
     for (int i = 0; i < n; ++i) ws.x_trial[i] = x[i] - ws.g[i];
@@ -384,20 +393,8 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
     return usable = false;  // no descent: no solution along the Newton direction
   };
 
-  sidesFrom();
-  bool pivoting = true;
-  while (usable && stats.iterations < newton_cap && !(best <= settings.tolerance)) {
-    if (pivoting) {
-      pivoting = pivotStep();
-      if (!pivoting && usable) {  // from the best feasible point, monotone steps
-        x = ws.x_best;
-        gradient(ws, x, ws.g);
-      }
-    } else if (projectedStep()) {
-      sidesFrom();
-      pivoting = true;
-    }
-  }
+  while (usable && stats.iterations < newton_cap && !(best <= settings.tolerance))
+    if (!semismoothStep() && usable) projectedStep();
   x = ws.x_best;
   const bool converged = best <= settings.tolerance && stats.iterations > 0;
   stats.newton_steps = stats.iterations;

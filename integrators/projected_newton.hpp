@@ -9,17 +9,20 @@
 // one numeric factorization of A reduced to the free variables (the others' rows and columns
 // replaced by the identity, so every step refactors the same pattern; + 1e-10 I on the free
 // ones keeps a singular A_FF, i.e. redundant rows, factorizable):
-//   - block principal pivoting (Judice & Pires 1994, Comput. Oper. Res. 21; the primal-dual
-//     active set method of Hintermueller, Ito & Kunisch 2003, SIAM J. Optim. 13): each
-//     variable is free or held at a bound; the free ones solve A_FF x_F = -b_F - A_FH x_H
-//     exactly, then every infeasible variable changes side at once. The number of steps
-//     follows the face changes, not the conditioning of A, so it does not grow with the depth
-//     of a pile where CG's grows like sqrt(cond A);
-//   - when pivoting has not reduced the number of infeasible variables for 3 steps (it can
-//     cycle when A is not an M-matrix), a projected Newton step from the best point so far
+//   - a semismooth Newton step on the natural map F(x) = x - P(x - g(x)), g = A x + b: the
+//     primal-dual active set step (Hintermueller, Ito & Kunisch 2003, "The primal-dual
+//     active set strategy as a semismooth Newton method", SIAM J. Optim. 13). Each variable
+//     is held at a bound where x - g leaves the box, the free ones solve
+//     A_FF x_F = -b_F - A_FH x_H exactly, and the step towards that point is halved until
+//     |F| falls (Armijo). Undamped, the number of steps follows the face changes, not the
+//     conditioning of A, so it does not grow with the depth of a pile where CG's grows like
+//     sqrt(cond A). Redundant rows with GLOBAL tangents leave faces whose program is
+//     unbounded (a self-equilibrated set of impulses that does work on the tangents); there
+//     the line search damps the step;
+//   - where no step length lowers |F|, a projected Newton step from the best point so far
 //     (Bertsekas 1982, SIAM J. Control Optim. 20): Newton on the variables not binding within
 //     eps = min(1e-3, |x - P(x - g)|), a gradient step on the binding ones, a projected Armijo
-//     line search; monotone in f, it breaks the cycle, and pivoting resumes from there.
+//     line search on f.
 // The solve is handed to MPRGP (solveMprgp, warm-started from the best iterate, with the
 // remaining iteration budget) when a factorization fails, the line search finds no descent
 // (no solution: the dual falls without bound) or 50 factorizations did not converge.
@@ -52,7 +55,7 @@ struct ProjectedNewtonWorkspace {
   std::vector<int> marker, touched;
   std::vector<double> b, g, d, x_trial, g_trial;
   std::vector<char> binding, side;
-  std::vector<double> lower, upper, x_best;
+  std::vector<double> lower, upper, x_best, x_prev, g_prev;
   std::unique_ptr<SparseCholesky> cholesky;
 };
 
