@@ -1,8 +1,9 @@
 #pragma once
-// Scheme B's two stages solved as the convex quadratic programs they are (StageSolver::Mprgp),
-// by MPRGP / MPGP (integrators/mprgp.hpp) on the matrix-free Delassus operator. Same inputs,
-// outputs and meaning as solveNormalStage and solveFrictionStage (integrators/nlgs.hpp), which
-// call these when the stage's solver is mprgp.
+// Scheme B's two stages solved as the convex quadratic programs they are: by MPRGP / APGD
+// (integrators/mprgp.hpp) on the matrix-free Delassus operator, or by active-set Newton steps
+// on its assembled form (integrators/projected_newton.hpp; solver newton, or auto in 2D). Same
+// inputs, outputs and meaning as solveNormalStage and solveFrictionStage
+// (integrators/nlgs.hpp), which call these when the stage's solver is not nlgs.
 //
 // Stage 5a, the dual of min 1/2 |v - v_free|_M^2 subject to W_N^T v + bias >= 0 on the index
 // set, in the scaled normals Lambda_c = s_c lambda_c (s_c^2 = W_NN,c, unit diagonal):

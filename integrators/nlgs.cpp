@@ -50,6 +50,8 @@ const char* stageSolverName(StageSolver solver) {
       return "mprgp";
     case StageSolver::Newton:
       return "newton";
+    case StageSolver::Auto:
+      return "auto";
     case StageSolver::Nlgs:
       break;
   }

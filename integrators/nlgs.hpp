@@ -38,13 +38,14 @@ enum class NlgsAcceleration { None, Nncg };
 const char* nlgsAccelerationName(NlgsAcceleration acceleration);
 
 // Solver of one of scheme B's stages: nonlinear Gauss-Seidel, or the stage solved as the
-// convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on stage 5a's bound
-// constraints, MPGP on stage 5b's friction discs, intervals, held and guarded rows. Scheme A's
-// coupled Coulomb problem is not convex and takes NLGS only.
-// Newton: projected Newton steps with a sparse Cholesky factorization on box sets
-// (integrators/projected_newton.hpp), APGD on discs.
-enum class StageSolver { Nlgs, Mprgp, Newton };
-const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp", "newton"
+// convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on box sets (stage
+// 5a, 2D stage 5b), APGD when a block is a disc (3D stage 5b); Newton: active-set Newton steps
+// on a sparse Cholesky factorization for box sets (integrators/projected_newton.hpp), APGD on
+// discs. Auto, the default: Newton on 2D problems, MPRGP on 3D ones, the faster of the two on
+// the funnel, the powder bed and the slider-crank (docs/schemes.md, "Convex stage solvers").
+// Scheme A's coupled Coulomb problem is not convex and takes NLGS only.
+enum class StageSolver { Nlgs, Mprgp, Newton, Auto };
+const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp", "newton", "auto"
 
 struct NlgsSettings {
   int max_iterations = 3000;
@@ -91,8 +92,8 @@ struct NlgsWorkspace {
   VectorX v_before, v_direction;
   std::vector<int> island_dofs, dof_stamp;
   int stamp = 0;
-  // the convex stage solvers' (StageSolver::Mprgp): the program's variables and sets, and per
-  // row its variables (-1: none) and their scales
+  // the convex stage solvers' (every StageSolver but Nlgs): the program's variables and sets, and
+  // per row its variables (-1: none) and their scales
   struct Convex {
     MprgpWorkspace mprgp;
     ProjectedNewtonWorkspace newton;

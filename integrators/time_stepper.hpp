@@ -43,9 +43,9 @@ struct SchemeSettings {
   NormalLaw normal_law = NormalLaw::Vel;
   NlgsSettings coulomb{3000};  // scheme A
   // scheme B's stages, solved as convex programs by default (docs/schemes.md, "Convex solvers")
-  NlgsSettings normal_stage{1500, StageSolver::Mprgp};    // 5a
-  NlgsSettings friction_stage{1500, StageSolver::Mprgp};  // 5b
-  FrictionStageOptions friction;                          // scheme B: tangents, threshold
+  NlgsSettings normal_stage{1500, StageSolver::Auto};    // 5a
+  NlgsSettings friction_stage{1500, StageSolver::Auto};  // 5b
+  FrictionStageOptions friction;                         // scheme B: tangents, threshold
   // Candidate screening (both schemes): a candidate that is not predicted to close within
   // the step and carried no impulse at the last one is left out of the solve; after it, each
   // one left out is checked against its law (U*_N(k+1) >= 0 with zero impulse, up to

@@ -684,9 +684,11 @@ class SceneParser {
       s.solver = StageSolver::Mprgp;
     else if (solver == "newton" && convex)
       s.solver = StageSolver::Newton;
+    else if (solver == "auto" && convex)
+      s.solver = StageSolver::Auto;
     else
       f["solver"].fail(convex
-                           ? "must be nlgs, mprgp or newton"
+                           ? "must be auto, newton, mprgp or nlgs"
                            : "must be nlgs (Jean-Moreau's coupled Coulomb problem is not convex)");
     const long cap = f.integer("max_iterations", s.max_iterations);
     if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");

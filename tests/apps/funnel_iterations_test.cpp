@@ -58,8 +58,8 @@ StageCounts run500DiskFunnel(StageSolver solver) {
 TEST(FunnelIterations, ConvexStagesOn500Disks) {
   const SceneFile file =
       loadSceneFile(std::string(SWEEP_SOURCE_DIR) + "/examples/funnel/funnel.yaml", {});
-  ASSERT_EQ(file.run.scheme.normal_stage.solver, StageSolver::Mprgp);
-  ASSERT_EQ(file.run.scheme.friction_stage.solver, StageSolver::Mprgp);
+  ASSERT_EQ(file.run.scheme.normal_stage.solver, StageSolver::Auto);  // Newton in 2D
+  ASSERT_EQ(file.run.scheme.friction_stage.solver, StageSolver::Auto);
   const StageCounts counts = run500DiskFunnel(StageSolver::Mprgp);
   ASSERT_GT(counts.active, 400) << "the pile must form";
   EXPECT_LE(counts.normal_p95, 200);
