@@ -7,8 +7,10 @@
 // A formed explicitly from the operator's columns (QpOperator::columns), its pattern analysed
 // once per solve (SuiteSparse CHOLMOD, AMD ordering, simplicial LDL^T). Two kinds of step, each
 // one numeric factorization of A reduced to the free variables (the others' rows and columns
-// replaced by the identity, so every step refactors the same pattern; + 1e-10 I on the free
-// ones keeps a singular A_FF, i.e. redundant rows, factorizable):
+// replaced by the identity, so every step refactors the same pattern), plus rho I on the free
+// ones, rho = 1e-4 of the unit diagonal: a proximal term that keeps a singular A_FF (redundant
+// rows) factorizable and bounds the step along directions of zero curvature. It costs a
+// factor rho / lambda of the error per step along a direction of curvature lambda:
 //   - a semismooth Newton step on the natural map F(x) = x - P(x - g(x)), g = A x + b: the
 //     primal-dual active set step (Hintermueller, Ito & Kunisch 2003, "The primal-dual
 //     active set strategy as a semismooth Newton method", SIAM J. Optim. 13). Each variable
@@ -18,13 +20,13 @@
 //     conditioning of A, so it does not grow with the depth of a pile where CG's grows like
 //     sqrt(cond A). Redundant rows with GLOBAL tangents leave faces whose program is
 //     unbounded (a self-equilibrated set of impulses that does work on the tangents); there
-//     the line search damps the step;
+//     the proximal term and the line search bound the step;
 //   - where no step length lowers |F|, a projected Newton step from the best point so far
 //     (Bertsekas 1982, SIAM J. Control Optim. 20): Newton on the variables not binding within
 //     eps = min(1e-3, |x - P(x - g)|), a gradient step on the binding ones, a projected Armijo
 //     line search on f.
-// The solve is handed to MPRGP (solveMprgp, warm-started from the best iterate, with the
-// remaining iteration budget) when a factorization fails, the line search finds no descent
+// The solve is handed to MPRGP (solveMprgp, from the caller's warm start, with the remaining
+// iteration budget) when a factorization fails, the line search finds no descent
 // (no solution: the dual falls without bound) or 50 factorizations did not converge.
 // Stop: mprgp.hpp's natural-map residual, recomputed at the end through the operator.
 // Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
@@ -55,7 +57,7 @@ struct ProjectedNewtonWorkspace {
   std::vector<int> marker, touched;
   std::vector<double> b, g, d, x_trial, g_trial;
   std::vector<char> binding, side;
-  std::vector<double> lower, upper, x_best, x_prev, g_prev;
+  std::vector<double> lower, upper, x_start, x_best, x_prev, g_prev;
   std::unique_ptr<SparseCholesky> cholesky;
 };
 

@@ -74,6 +74,9 @@ inline SettledProblem settledPile(int count, int steps, NormalLaw law,
   SchemeSettings settings;
   settings.scheme = scheme;
   settings.h = 2e-4;
+  // a fixed state for the solver tests, whatever the default stage solver
+  settings.normal_stage.solver = StageSolver::Mprgp;
+  settings.friction_stage.solver = StageSolver::Mprgp;
   return settledProblem(granularBox(parameters), settings, steps, law);
 }
 
