@@ -149,8 +149,8 @@ struct FrictionStageOptions {
   FrictionThreshold threshold = FrictionThreshold::Physical;
   OpenContacts open_contacts = OpenContacts::Unilateral;
   // GLOBAL's residual measures each held row's normal drift against the normal impulse the
-  // row carries; false: against the tangential impulses only (the rule before 2026-11-23,
-  // which swept rows without friction to the cap; docs/schemes.md)
+  // row carries; false: against the tangential impulses only, which sweeps rows without
+  // friction to the cap (docs/schemes.md)
   bool residual_scale_with_normal = true;
   // Rounds of stage 5b after the first, each with the thresholds of the held rows taken from
   // the previous round's total normal impulse, S_c = mu_c (lambda_N,c + delta_c), from v1 and
