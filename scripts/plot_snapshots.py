@@ -68,20 +68,30 @@ def main(argv):
         folder, _, label = spec.partition(":")
         runs.append((series(folder), label or os.path.basename(folder.rstrip("/"))))
     fig, axes = plt.subplots(1, len(times), figsize=(4 * len(times), 4.6), squeeze=False)
+    # one frame for every panel: everything drawn at the times shown, walls and grains
+    frames = [[(label, k) + nearest(snaps, t) for k, (snaps, label) in enumerate(runs)]
+              for t in times]
+    xs, ys = [], []
+    for panel in frames:
+        for _, _, _, path in panel:
+            disks, lines, polys = load(path)
+            for c, r in disks:
+                xs += [c[0] - r, c[0] + r]
+                ys += [c[1] - r, c[1] + r]
+            for seg in lines + polys:
+                xs += [p[0] for p in seg]
+                ys += [p[1] for p in seg]
     bounds = None
-    for ax, t in zip(axes[0], times):
-        for k, (snaps, label) in enumerate(runs):
-            time, path = nearest(snaps, t)
+    if xs:
+        pad = 0.05 * max(max(xs) - min(xs), max(ys) - min(ys))
+        bounds = (min(xs) - pad, max(xs) + pad, min(ys) - pad, max(ys) + pad)
+    for ax, panel in zip(axes[0], frames):
+        for label, k, time, path in panel:
             disks, lines, polys = load(path)
             colour = COLOURS[k % len(COLOURS)]
             ax.add_collection(PatchCollection([Circle(c, r) for c, r in disks], facecolor="none",
                                               edgecolor=colour, lw=0.8, label=label))
             ax.add_collection(LineCollection(lines + polys, colors="k", lw=1.5))
-            if bounds is None and lines:
-                xs = [p[0] for seg in lines for p in seg]
-                ys = [p[1] for seg in lines for p in seg]
-                pad = 0.15 * (max(xs) - min(xs))
-                bounds = (min(xs) - pad, max(xs) + pad, min(ys) - 5 * pad, max(ys) + pad)
         ax.set_title(f"t = {time:.3f} s")
         ax.set_aspect("equal")
         if bounds:
