@@ -274,11 +274,11 @@ void collectDofs(const ContactProblem& p, int nv, NlgsWorkspace::Convex& ws) {
 // The stage's program by the stage's solver: active-set Newton when asked for (auto: in 2D)
 // and every set is a box, else MPRGP on boxes and APGD on discs.
 MprgpStats solveProgram(const ContactProblem& p, const QpOperator& op, const NlgsSettings& settings,
-                        NlgsWorkspace::Convex& ws, VectorX& v) {
-  const bool newton = settings.solver == StageSolver::Newton ||
-                      (settings.solver == StageSolver::Auto && p.dimension == 2);
-  if (newton && projectedNewtonApplies(ws.set))
-    return solveProjectedNewton(op, ws.set, mprgpSettings(settings), ws.x, v, ws.newton, ws.mprgp);
+                        NlgsWorkspace::Convex& ws, ProjectedNewtonWorkspace& newton, VectorX& v) {
+  const bool use_newton = settings.solver == StageSolver::Newton ||
+                          (settings.solver == StageSolver::Auto && p.dimension == 2);
+  if (use_newton && projectedNewtonApplies(ws.set))
+    return solveProjectedNewton(op, ws.set, mprgpSettings(settings), ws.x, v, newton, ws.mprgp);
   return solveSeparableQp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
 }
 
@@ -315,7 +315,7 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
     ws.x.push_back(s * lambda_N[c]);
   }
   const NormalRows op(p, ws);
-  const MprgpStats solve = solveProgram(p, op, settings, ws, v);
+  const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_normal, v);
   for (int c = 0; c < n; ++c)
     if (ws.normal_var[c] >= 0) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
   NlgsStats stats = statsOf(solve, n);
@@ -373,7 +373,8 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
     ws.v_normal.setZero();
     const NormalRows op(p, ws);
-    const MprgpStats projection = solveProgram(p, op, settings, ws, ws.v_normal);
+    const MprgpStats projection =
+        solveProgram(p, op, settings, ws, ws.newton_projection, ws.v_normal);
     total.updates += static_cast<long>(projection.products) * n;
     for (int c = 0; c < n; ++c) {
       const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
@@ -437,7 +438,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     }
   }
   const FrictionRows op(p, options, nlgs);
-  const MprgpStats solve = solveProgram(p, op, settings, ws, v);
+  const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_friction, v);
   for (int c = 0; c < n; ++c) {
     delta[c] = ws.normal_var[c] >= 0 ? ws.x[ws.normal_var[c]] * ws.normal_scale[c] : 0.0;
     const int t = ws.tangent_var[c];

@@ -96,7 +96,8 @@ struct NlgsWorkspace {
   // per row its variables (-1: none) and their scales
   struct Convex {
     MprgpWorkspace mprgp;
-    ProjectedNewtonWorkspace newton;
+    // one per program, so that a pattern that holds from step to step keeps its analysis
+    ProjectedNewtonWorkspace newton_normal, newton_projection, newton_friction;
     SeparableSet set;
     std::vector<double> x;
     std::vector<int> normal_var, tangent_var, rolling_var;

@@ -4,8 +4,9 @@
 //
 //   min_x  f(x) = 1/2 x^T A x + b^T x,   lower <= x <= upper,   A = J^T K = E^T H^T M^-1 H E,
 //
-// A formed explicitly from the operator's columns (QpOperator::columns), its pattern analysed
-// once per solve (SuiteSparse CHOLMOD, AMD ordering, simplicial LDL^T). Two kinds of step, each
+// A formed explicitly from the operator's columns (QpOperator::columns), its pattern ordered
+// (AMD) and analysed when it differs from the last solve's, then factorized by SuiteSparse
+// CHOLMOD's simplicial LDL^T on a copy permuted once per pattern, so that no step allocates. Two kinds of step, each
 // one numeric factorization of A reduced to the free variables (the others' rows and columns
 // replaced by the identity, so every step refactors the same pattern), plus rho I on the free
 // ones, rho = 1e-4 of the unit diagonal: a proximal term that keeps a singular A_FF (redundant

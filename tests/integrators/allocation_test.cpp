@@ -87,5 +87,40 @@ TEST(NoAllocation, InsideEverySolver) {
   }
 }
 
+// The convex stage solvers size their workspaces on a solve's first call (and the Newton
+// solver orders and analyses a new pattern there); solving the same problem again, as a step
+// whose contacts did not change does, allocates nothing.
+TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
+  for (bool planar : {true, false}) {
+    const test::SettledProblem pile =
+        test::settledPile(120, 400, NormalLaw::Pos, Scheme::CatchingUp, planar);
+    const ContactProblem& problem = pile.step.problem;
+    const int n = problem.size();
+    ASSERT_GT(n, 50);
+    for (StageSolver solver : {StageSolver::Mprgp, StageSolver::Newton}) {
+      NlgsWorkspace ws;
+      ws.prepare(n, pile.scene.model.nv);
+      NlgsSettings settings;
+      settings.solver = solver;
+      settings.max_iterations = 200;
+      FrictionStageOptions options;
+      for (int round = 0; round < 2; ++round) {
+        std::vector<double> lambda_N(n, 0.0), delta(n, 0.0);
+        std::vector<Vector2> lambda_T(n, Vector2::Zero());
+        VectorX v = pile.step.v_free;
+        {
+          Counted counted;
+          solveNormalStage(problem, settings, lambda_N, v, ws);
+          solveFrictionStage(problem, settings, options, lambda_N, delta, lambda_T, v, ws);
+        }
+        if (round == 1) {
+          EXPECT_EQ(allocations, 0)
+              << (planar ? "2D " : "3D ") << stageSolverName(solver) << " stages";
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace sweep
