@@ -33,6 +33,11 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
       << " driven, nq = " << model.nq << ", nv = " << model.nv << "\n";
   out << "  " << sweep::describe(scene.cmodel) << "\n";
   const sweep::SchemeSettings& s = file.run.scheme;
+  // auto as what it resolves to here (convex_stages.cpp: Newton on 2D problems)
+  auto stageSolverShown = [&](sweep::StageSolver solver) {
+    if (solver != sweep::StageSolver::Auto) return std::string(sweep::stageSolverName(solver));
+    return std::string(file.spec.dimension == 2 ? "newton" : "mprgp") + " (auto)";
+  };
   out << "  scheme: " << sweep::schemeName(s.scheme) << ", h = " << s.h
       << " s, t_end = " << file.run.t_end << " s, normal law "
       << sweep::normalLawName(s.normal_law);
@@ -42,8 +47,10 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
                 ? std::string(" (open contacts ") +
                       sweep::openContactsName(s.friction.open_contacts) + ")"
                 : std::string())
-        << ", threshold " << sweep::frictionThresholdName(s.friction.threshold) << ", caps "
-        << s.normal_stage.max_iterations << " + " << s.friction_stage.max_iterations;
+        << ", threshold " << sweep::frictionThresholdName(s.friction.threshold)
+        << ", stage solvers " << stageSolverShown(s.normal_stage.solver) << " + "
+        << stageSolverShown(s.friction_stage.solver) << ", caps " << s.normal_stage.max_iterations
+        << " + " << s.friction_stage.max_iterations;
   else
     out << ", cap " << s.coulomb.max_iterations;
   const bool catching_up = s.scheme == sweep::Scheme::CatchingUp;
