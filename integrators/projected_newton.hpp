@@ -6,11 +6,11 @@
 //
 // A formed explicitly from the operator's columns (QpOperator::columns), its pattern ordered
 // (AMD) and analysed when it differs from the last solve's, then factorized by SuiteSparse
-// CHOLMOD's simplicial LDL^T on a copy permuted once per pattern, so that no step allocates. Two kinds of step, each
-// one numeric factorization of A reduced to the free variables (the others' rows and columns
-// replaced by the identity, so every step refactors the same pattern), plus rho I on the free
-// ones, rho = 1e-4 of the unit diagonal: a proximal term that keeps a singular A_FF (redundant
-// rows) factorizable and bounds the step along directions of zero curvature. It costs a
+// CHOLMOD's simplicial LDL^T on a copy permuted once per pattern, so that no step allocates. Two
+// kinds of step, each one numeric factorization of A reduced to the free variables (the others'
+// rows and columns replaced by the identity, so every step refactors the same pattern), plus rho I
+// on the free ones, rho = 1e-4 of the unit diagonal: a proximal term that keeps a singular A_FF
+// (redundant rows) factorizable and bounds the step along directions of zero curvature. It costs a
 // factor rho / lambda of the error per step along a direction of curvature lambda:
 //   - a semismooth Newton step on the natural map F(x) = x - P(x - g(x)), g = A x + b: the
 //     primal-dual active set step (Hintermueller, Ito & Kunisch 2003, "The primal-dual

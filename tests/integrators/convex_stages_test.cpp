@@ -20,6 +20,7 @@ namespace {
 class DenseProgram final : public QpOperator {
  public:
   DenseProgram(MatrixX B, VectorX b) : B_(std::move(B)), b_(std::move(b)) {}
+  const MatrixX& matrix() const { return B_; }
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
     z = B_ * Eigen::Map<const VectorX>(x.data(), static_cast<Eigen::Index>(x.size()));
   }
@@ -77,6 +78,27 @@ void projectReference(const SeparableSet& s, std::vector<double>& x) {
 }
 
 // FISTA with restarts, run long: an answer reached by a different road.
+// A random program over `set`: B with two rows more than variables (rows: velocities,
+// columns: variables) and a linear term b. A redundant program repeats a column, so that two
+// variables act identically (a contact detected twice); the free variables' linear term then
+// lies in the range of A, for a bounded program.
+DenseProgram randomProgram(std::mt19937& rng, const SeparableSet& set, bool redundant) {
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  const int n = set.variables;
+  MatrixX B(n + 2, n);
+  for (int i = 0; i < B.rows(); ++i)
+    for (int j = 0; j < n; ++j) B(i, j) = uniform(rng);
+  if (redundant) B.col(n - 1) = B.col(0);
+  VectorX b(n);
+  for (int j = 0; j < n; ++j) b[j] = 2.0 * uniform(rng);
+  if (redundant) {
+    for (int k = 0; k < set.blocks(); ++k)
+      if (set.set[k] == BlockSet::Free) b[set.first[k]] = 0.0;
+    b[n - 1] = b[0];
+  }
+  return DenseProgram(std::move(B), std::move(b));
+}
+
 std::vector<double> referenceSolve(const DenseProgram& program, const SeparableSet& s) {
   const MatrixX A = program.B().transpose() * program.B();
   const double L = Eigen::SelfAdjointEigenSolver<MatrixX>(A).eigenvalues().maxCoeff();
@@ -127,22 +149,8 @@ TEST(Mprgp, RandomProgramsMatchAnIndependentSolve) {
       }
     }
     const int n = set.variables;
-    const bool redundant = trial % 2 == 1;
-    // rows of B: velocities; columns: variables. A redundant program repeats a column, so that
-    // two variables act identically (a contact detected twice)
-    MatrixX B(n + 2, n);
-    for (int i = 0; i < B.rows(); ++i)
-      for (int j = 0; j < n; ++j) B(i, j) = uniform(rng);
-    if (redundant) B.col(n - 1) = B.col(0);
-    VectorX b(n);
-    for (int j = 0; j < n; ++j) b[j] = 2.0 * uniform(rng);
-    if (redundant) {
-      // the free variables' linear term must lie in the range of A for a bounded program
-      for (int k = 0; k < set.blocks(); ++k)
-        if (set.set[k] == BlockSet::Free) b[set.first[k]] = 0.0;
-      b[n - 1] = b[0];
-    }
-    const DenseProgram program(B, b);
+    const DenseProgram program = randomProgram(rng, set, trial % 2 == 1);
+    const MatrixX& B = program.matrix();
     const std::vector<double> reference = referenceSolve(program, set);
     const double f_ref = program.objective(reference);
     const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
@@ -202,19 +210,8 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
     }
     ASSERT_TRUE(projectedNewtonApplies(set));
     const int n = set.variables;
-    const bool redundant = trial % 2 == 1;
-    MatrixX B(n + 2, n);
-    for (int i = 0; i < B.rows(); ++i)
-      for (int j = 0; j < n; ++j) B(i, j) = uniform(rng);
-    if (redundant) B.col(n - 1) = B.col(0);
-    VectorX b(n);
-    for (int j = 0; j < n; ++j) b[j] = 2.0 * uniform(rng);
-    if (redundant) {
-      for (int k = 0; k < set.blocks(); ++k)
-        if (set.set[k] == BlockSet::Free) b[set.first[k]] = 0.0;
-      b[n - 1] = b[0];
-    }
-    const DenseProgram program(B, b);
+    const DenseProgram program = randomProgram(rng, set, trial % 2 == 1);
+    const MatrixX& B = program.matrix();
     const std::vector<double> reference = referenceSolve(program, set);
     const double f_ref = program.objective(reference);
     const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
