@@ -347,7 +347,7 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
       ws.side[i] = y <= ws.lower[i] ? kLower : y >= ws.upper[i] ? kUpper : kFree;
     }
   };
-  // factorizes the matrix reduced to the variables not in `held` and solves for -g there
+  // factorizes the matrix reduced to the variables not binding and solves for -g there
   auto newtonDirection = [&]() {
     reducedMatrix(ws, n, ws.binding);
     for (int i = 0; i < n; ++i) ws.g_trial[i] = ws.binding[i] ? 0.0 : -ws.g[i];
