@@ -11,10 +11,11 @@ namespace sweep {
 
 namespace {
 
-// Newton steps before the solve is handed to MPRGP: the face changes a warm-started solve
-// needs are a handful; more means a program the Newton steps do not suit (no solution, or a
-// face that cycles)
-constexpr int kMaxNewton = 50;
+// Newton steps before the solve is handed to MPRGP: a warm-started solve needs a handful, but
+// damped steps on GLOBAL's redundant held rows took up to 67 on the 50 000-disk funnel (with
+// 50, MPRGP then hit its cap on 60 steps); more means a program the Newton steps do not suit
+// (no solution)
+constexpr int kMaxNewton = 200;
 // rho, the proximal term added to A_FF (unit-diagonal units; projected_newton.hpp). Measured
 // on the 5000-disk funnel: 1e-10 handed 69 steps' stage 5b to MPRGP, 1e-8 29, 1e-6 2, 1e-4 and
 // 1e-3 none (and took the same time within the machine's noise)

@@ -28,7 +28,7 @@
 //     line search on f.
 // The solve is handed to MPRGP (solveMprgp, from the caller's warm start, with the remaining
 // iteration budget) when a factorization fails, the line search finds no descent
-// (no solution: the dual falls without bound) or 50 factorizations did not converge.
+// (no solution: the dual falls without bound) or 200 factorizations did not converge.
 // Stop: mprgp.hpp's natural-map residual, recomputed at the end through the operator.
 // Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
 // 3D contact network: it pays where CG needs many iterations (deep piles, tight tolerances).
