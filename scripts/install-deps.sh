@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs every build, test and plotting dependency of Sweep from Debian 12's own archive.
+# Installs every build and plotting dependency of Sweep from Debian 12's own archive, and with
+# --tests what only the test suite uses (a headless browser for the viewer, VTK's reader).
 # Idempotent: when everything is already installed it touches nothing (and needs no network).
 set -euo pipefail
 
@@ -7,8 +8,11 @@ packages=(
   build-essential cmake clang-format
   libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libassimp-dev libsundials-dev libyaml-cpp-dev
   libsuitesparse-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
-  python3-matplotlib python3-numpy
+  libjs-three python3-matplotlib python3-numpy
 )
+if [ "${1:-}" = "--tests" ]; then
+  packages+=(chromium python3-vtk9)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -12,6 +12,7 @@
 #include "apps/sweep/bench.hpp"
 #include "apps/sweep/run.hpp"
 #include "apps/sweep/scene_file.hpp"
+#include "apps/sweep/viewer.hpp"
 #include "framework/error.hpp"
 
 namespace {
@@ -144,6 +145,16 @@ int main(int argc, char** argv) {
   addSceneOptions(exporter);
   exporter->add_option("output", export_path, "explicit scene file to write")->required();
 
+  sweep::ViewerOptions view_options;
+  CLI::App* view = app.add_subcommand(
+      "view", "write one self-contained HTML page that plays a run's snapshots back");
+  view->add_option("results", view_options.results_dir,
+                   "results folder of a run with snapshots (output.vtk_interval)")
+      ->required();
+  view->add_option("--out", view_options.out_file, "page to write (default: RESULTS/view.html)");
+  view->add_option("--every", view_options.every, "keep every N-th snapshot (and the last)")
+      ->default_val(1);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -162,6 +173,10 @@ int main(int argc, char** argv) {
       if (export_path.empty()) throw sweep::InputError("export: OUTPUT must name a file, got ''");
       if (std::filesystem::is_directory(export_path, error))
         throw sweep::InputError(export_path + ": is a folder; export writes a scene file");
+    }
+    if (view->parsed()) {
+      std::cout << "wrote " << sweep::writeViewer(view_options) << "\n";
+      return 0;
     }
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);

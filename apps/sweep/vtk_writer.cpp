@@ -20,6 +20,8 @@ struct Cell {
 
 VtkSeries::VtkSeries(const Scene& scene, const std::string& out_dir)
     : scene_(scene), dir_(out_dir), data_(scene.model), cdata_(scene.model, scene.cmodel) {
+  for (const Geometry& geometry : scene.cmodel.geometries)
+    if (isPlanarShape(geometry.shape.type)) dimension_ = 2;
   std::filesystem::create_directories(dir_ + "/vtk");
 }
 
@@ -45,7 +47,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
   }
 
   std::vector<Vector3> points;
-  std::vector<int> body_id, kind;
+  std::vector<int> body_id, kind, shape_type;
   std::vector<double> radius;
   std::vector<Vector3> velocity, contact_force;
   std::vector<Cell> cells;
@@ -69,6 +71,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
       points.push_back(x);
       body_id.push_back(body);
       kind.push_back(static_cast<int>(geometry.body.kind));
+      shape_type.push_back(static_cast<int>(shape.type));
       radius.push_back(r);
       velocity.push_back(v);
       contact_force.push_back(f);
@@ -101,6 +104,18 @@ void VtkSeries::write(const TimeStepper& stepper) {
       cell.kind = Cell::Kind::Line;
       cell.points = {add(pose.apply(shape.segment_start), shape.radius),
                      add(pose.apply(shape.segment_end), shape.radius)};
+    } else if ((shape.type == ShapeType::ConvexMesh || shape.type == ShapeType::TriangleMesh) &&
+               shape.mesh) {
+      // the triangles on the mesh's vertices: a hopper or a part as it is
+      const int first = static_cast<int>(points.size());
+      for (const Vector3& p : shape.mesh->vertices) add(pose.apply(p), 0.0);
+      for (const auto& triangle : shape.mesh->triangles) {
+        Cell face;
+        face.kind = Cell::Kind::Polygon;
+        for (int k : triangle) face.points.push_back(first + k);
+        cells.push_back(face);
+      }
+      continue;
     } else if (shape.type == ShapeType::Polygon) {
       cell.kind = Cell::Kind::Polygon;
       for (const Vector3& p : shape.vertices) cell.points.push_back(add(pose.apply(p), 0.0));
@@ -119,6 +134,13 @@ void VtkSeries::write(const TimeStepper& stepper) {
   x << "<?xml version=\"1.0\"?>\n"
     << "<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
     << "<PolyData>\n"
+    << "<FieldData>\n<DataArray type=\"Int32\" Name=\"dimension\" NumberOfTuples=\"1\" "
+       "format=\"ascii\">"
+    << dimension_ << "</DataArray>\n"
+    << "<DataArray type=\"Float64\" Name=\"gravity\" NumberOfComponents=\"3\" "
+       "NumberOfTuples=\"1\" format=\"ascii\">"
+    << model.gravity.x() << ' ' << model.gravity.y() << ' ' << model.gravity.z()
+    << "</DataArray>\n</FieldData>\n"
     << "<Piece NumberOfPoints=\"" << points.size() << "\" NumberOfVerts=\"" << verts
     << "\" NumberOfLines=\"" << lines << "\" NumberOfStrips=\"0\" NumberOfPolys=\"" << polys
     << "\">\n";
@@ -137,6 +159,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
   };
   ints("body_id", body_id);
   ints("kind", kind);
+  ints("shape", shape_type);
   x << "<DataArray type=\"Float64\" Name=\"radius\" format=\"ascii\">\n";
   for (double r : radius) x << r << ' ';
   x << "\n</DataArray>\n";

@@ -1,9 +1,10 @@
 #pragma once
-// VTK snapshots for ParaView: one PolyData file (.vtp) per snapshot, the bodies' shapes as
-// vertices (disks, spheres and other bodies by their centre), lines (segments, and the axes of
-// capsules and cylinders), polygons (2D polygons, the six faces of boxes),
-// with body id, kind, radius, velocity and contact force as point data; and a .pvd collection
-// that lists the snapshots with their times, rewritten after each one so it is always valid.
+// VTK snapshots for ParaView and `sweep view`: one PolyData file (.vtp) per snapshot, the
+// bodies' shapes as vertices (disks, spheres), lines (segments, and the axes of capsules and
+// cylinders), polygons (2D polygons, the six faces of boxes, the triangles of meshes), with body
+// id, kind, shape type (ShapeType), radius, velocity and contact force as point data and the
+// scene's dimension and gravity as field data; and a .pvd collection that lists the snapshots with
+// their times, rewritten after each one so it is always valid.
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@ class VtkSeries {
  private:
   const Scene& scene_;
   std::string dir_;
+  int dimension_ = 3;  // 2 when any shape is planar
   Data data_;
   ContactData cdata_;
   std::vector<std::pair<double, std::string>> entries_;  // time, file name
