@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Fuzzes the scene parser and the URDF importer with libFuzzer (clang), under AddressSanitizer
+# Fuzzes the scene parser, the URDF importer, saved states and the viewer's snapshot reader
+# with libFuzzer (clang), under AddressSanitizer
 # and UndefinedBehaviorSanitizer. Usage:
-#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]  (default: 60 s, scene, settings, state, urdf)
-# The seed corpus is every scene and URDF of examples/ and tests/data/, the saved states of
-# tests/fuzz/seeds/state/, plus the inputs that once crashed Sweep (tests/fuzz/regressions/,
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]  (default: 60 s, scene, settings, snapshot, state, urdf)
+# The seed corpus is every scene and URDF of examples/ and tests/data/, the saved states and
+# snapshots of tests/fuzz/seeds/, plus the inputs that once crashed Sweep (tests/fuzz/regressions/,
 # replayed first). The YAML targets mutate with tests/fuzz/scene.dict (the parser's keys). A crash leaves its input in
 # build-fuzz/crash-* and makes this script fail; add the input to tests/fuzz/regressions/.
 set -euo pipefail
@@ -11,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(scene settings state urdf)
+[ ${#targets[@]} -gt 0 ] || targets=(scene settings snapshot state urdf)
 
 "./scripts/install-deps.sh"
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
@@ -26,7 +27,7 @@ for target in "${targets[@]}"; do
     # a scene file is a settings file too: its top-level keys are paths
     scene | settings) find examples tests/data/scenes -name '*.yaml' -exec cp {} "$corpus/" \; ;;
     urdf) find examples tests/data -name '*.urdf' -exec cp {} "$corpus/" \; ;;
-    state) cp tests/fuzz/seeds/state/* "$corpus/" ;;
+    state | snapshot) cp "tests/fuzz/seeds/$target"/* "$corpus/" ;;
   esac
   dictionary=()
   case "$target" in scene | settings) dictionary=(-dict=../tests/fuzz/scene.dict) ;; esac

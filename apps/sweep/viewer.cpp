@@ -302,6 +302,15 @@ void replaceOnce(std::string& page, const std::string& marker, const std::string
 
 }  // namespace
 
+int readViewerSnapshot(const std::string& file, const std::string& text) {
+  SnapshotReader reader(file, text);
+  const Snapshot s = reader.read(0.0);
+  std::vector<double> speeds, forces;
+  double bounds[6] = {};
+  const Frame f = frameOf(s, speeds, forces, bounds);
+  return static_cast<int>(f.balls.size() / 7 + f.lines.size() / 11 + f.polygon_sizes.size());
+}
+
 std::string writeViewer(const ViewerOptions& options) {
   namespace fs = std::filesystem;
   if (options.every < 1)
@@ -358,6 +367,7 @@ std::string writeViewer(const ViewerOptions& options) {
   bool any_z = false;
   std::vector<double> up = {0.0, 0.0, 1.0};
   std::ostringstream frames;
+  frames.precision(17);
   frames << "[";
   int kept = 0;
   for (std::size_t e = 0; e < entries.size(); ++e) {

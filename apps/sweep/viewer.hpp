@@ -21,4 +21,8 @@ struct ViewerOptions {
 // Writes the page (atomically); returns its path.
 std::string writeViewer(const ViewerOptions& options);
 
+// One snapshot's text read and checked as writeViewer does (InputError naming `file` and the
+// field), and the number of shapes it draws: the snapshot fuzzer's entry.
+int readViewerSnapshot(const std::string& file, const std::string& text);
+
 }  // namespace sweep

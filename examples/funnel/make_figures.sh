@@ -3,7 +3,8 @@
 #   examples/funnel/make_figures.sh [OUT_DIR] [extra sweep options, e.g. --set scheme.normal_law=pos]
 # Figure 1: snapshots of both schemes at h = 1e-4; Figure 2: CPU time and cumulative
 # penetration against h, and CPU time against penetration with the speed-up at equal
-# penetration; Figure 3: solver iterations per step at h = 1e-4.
+# penetration; Figure 3: solver iterations per step at h = 1e-4. Each scheme's run also gets
+# view.html, a page that plays it back (sweep view).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 out="${1:-results/funnel}"
@@ -14,6 +15,7 @@ mkdir -p "$out"
 
 for scheme in moreau-jean catching-up; do
   "$sweep" run "$scene" --scheme "$scheme" --dt 1e-4 --out "$out/$scheme" "$@"
+  "$sweep" view "$out/$scheme"  # view.html: the run played back in a browser
 done
 "$sweep" bench "$scene" --dt 1e-3,5e-4,2e-4,1e-4,5e-5,2e-5,1e-5 --scheme moreau-jean,catching-up \
   --out "$out/bench" "$@"
