@@ -24,6 +24,8 @@ CASES = {
                    ["--set", "generators[0].count=500",
                     "--set", "generators[0].orifice=0.008032185256827685"]),
     "slider_crank": ("examples/archetypes/slider_crank.yaml", []),
+    # the reduced powder bed's heap settling (800 spheres, the first 20 ms)
+    "powder_heap": ("examples/powder_bed/powder_bed_reduced.yaml", ["--t-end", "0.02"]),
 }
 CONFIGS = [
     ("moreau-jean", ["--scheme", "moreau-jean"]),
@@ -33,6 +35,13 @@ CONFIGS = [
                            "--set", "scheme.friction_stage.solver=mprgp"]),
     ("catching-up newton", ["--scheme", "catching-up", "--set", "scheme.normal_stage.solver=newton",
                             "--set", "scheme.friction_stage.solver=newton"]),
+    ("catching-up", ["--scheme", "catching-up"]),
+    # the row storages' worth (docs/architecture.md, "Contact rows in two forms"): every row
+    # from the generic arrays, or spheres' rows in body form instead of compact
+    ("moreau-jean generic rows", ["--scheme", "moreau-jean", "--set", "scheme.packed_rows=false"]),
+    ("moreau-jean body-form rows", ["--scheme", "moreau-jean", "--set",
+                                    "scheme.compact_sphere_rows=false"]),
+    ("catching-up generic rows", ["--scheme", "catching-up", "--set", "scheme.packed_rows=false"]),
 ]
 
 
@@ -69,7 +78,7 @@ def main():
     parser.add_argument("--out", default="results/stage_solvers")
     parser.add_argument("--sweep", default=os.path.join(ROOT, "build", "sweep"))
     parser.add_argument("--cases", default="funnel,slider_crank,funnel_500")
-    parser.add_argument("--configs", default=",".join(name for name, _ in CONFIGS),
+    parser.add_argument("--configs", default=",".join(name for name, _ in CONFIGS[:4]),
                         help="comma-separated configurations, of: " +
                         ", ".join(name for name, _ in CONFIGS))
     parser.add_argument("--dt", default="", help="time steps for the funnel cases (default: the "

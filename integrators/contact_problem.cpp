@@ -673,8 +673,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   ws.touched.assign(island_begin.begin(), island_begin.end() - 1);  // fill cursors
   for (int c = 0; c < n; ++c)
     p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
-  p.pack2d();
-  p.pack3d();
+  if (p.pack_rows) {
+    p.pack2d();
+    p.pack3d();
+  }
 }
 
 }  // namespace sweep

@@ -252,6 +252,8 @@ struct ContactProblem {
   // the assembly's and pack3d's choice; false: every row in entry form (tests compare). Set it
   // before the assembly: a row the assembly wrote in body form has no entries to fall back on.
   bool pack_body_form = true;
+  bool pack_rows =
+      true;       // false: the assembly fills no rows2d / rows3d (SchemeSettings::packed_rows)
   void pack3d();  // from the arrays above; call after changing them
   // pack3d's lookup from a velocity index to the row's M^-1 H entry (-1 between rows), grown
   // to the largest index seen

@@ -71,6 +71,7 @@ TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
       tau_(VectorX::Zero(model.nv)) {
   settings_.validate();
   problem_.compact_spheres = settings_.compactSphereRows();
+  problem_.pack_body_form = problem_.pack_rows = settings_.packed_rows;
 }
 
 void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {

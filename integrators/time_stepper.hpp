@@ -63,6 +63,10 @@ struct SchemeSettings {
   // them directly; scheme B's friction stage reads them through the generic path and has a
   // packed path for body-form rows only. Unset (auto): compact for scheme A, body form for B.
   std::optional<bool> compact_sphere_rows;
+  // false (an ablation): every solver reads every row from ContactProblem's generic arrays, no
+  // packed 2D / 3D rows, body form or compact sphere rows; the results agree to round-off (2D:
+  // to the bit). What each storage buys: docs/architecture.md, "Contact rows in two forms".
+  bool packed_rows = true;
   bool compactSphereRows() const {
     return compact_sphere_rows.value_or(scheme == Scheme::MoreauJean);
   }

@@ -724,7 +724,7 @@ class SceneParser {
   void parseScheme(const YamlField& f) {
     f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates",
                  "open_contacts", "coulomb", "normal_stage", "friction_stage", "screening",
-                 "screening_rounds", "screening_gap", "compact_sphere_rows"});
+                 "screening_rounds", "screening_gap", "compact_sphere_rows", "packed_rows"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -783,6 +783,7 @@ class SceneParser {
       else
         field.fail("must be auto, true or false");
     }
+    s.packed_rows = f.boolean("packed_rows", s.packed_rows);
     if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, false);
     if (f.has("normal_stage"))
       s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage, true);
@@ -1133,6 +1134,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
     out << YAML::Value << *s.compact_sphere_rows;
   else
     out << YAML::Value << "auto";
+  out << YAML::Key << "packed_rows" << YAML::Value << s.packed_rows;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
       << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;
