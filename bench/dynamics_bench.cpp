@@ -3,7 +3,9 @@
 #include <benchmark/benchmark.h>
 
 #include "framework/crba.hpp"
+#include "framework/dynamics.hpp"
 #include "framework/rnea.hpp"
+#include "framework/urdf_import.hpp"
 #include "models/kinematic_trees.hpp"
 
 namespace {
@@ -68,6 +70,33 @@ void BM_Tree30_Crba(benchmark::State& s) {
 void BM_Tree30_Rnea(benchmark::State& s) {
   run(s, tree30(), rneaOnly);
 }
+
+// examples/archetypes/arm6.urdf, the model bench/python_overhead.py calls from Python
+const sweep::Model& armUrdf() {
+  static const sweep::Model m = sweep::loadUrdf(SWEEP_SOURCE_DIR "/examples/archetypes/arm6.urdf");
+  return m;
+}
+void BM_Arm6Urdf_BiasForces(benchmark::State& s) {
+  run(s, armUrdf(), rneaOnly);
+}
+void BM_Arm6Urdf_MassMatrix(benchmark::State& s) {
+  run(s, armUrdf(),
+      [](const sweep::Model& m, sweep::Data& d, const sweep::VectorX& q, const sweep::VectorX&) {
+        sweep::crba(m, d, q);
+        const sweep::MatrixX M = sweep::denseMassMatrix(m, d);
+        benchmark::DoNotOptimize(M.data());
+      });
+}
+void BM_Arm6Urdf_ForwardDynamics(benchmark::State& s) {
+  run(s, armUrdf(),
+      [](const sweep::Model& m, sweep::Data& d, const sweep::VectorX& q, const sweep::VectorX& v) {
+        sweep::forwardDynamics(m, d, q, v, v);
+        benchmark::DoNotOptimize(d.ddq.data());
+      });
+}
+BENCHMARK(BM_Arm6Urdf_BiasForces);
+BENCHMARK(BM_Arm6Urdf_MassMatrix);
+BENCHMARK(BM_Arm6Urdf_ForwardDynamics);
 
 }  // namespace
 

@@ -443,7 +443,7 @@ std::string jsonText(const nlohmann::ordered_json& json) {
   return json.dump(2) + "\n";
 }
 
-void writeSummaryJson(const RunSummary& s, const std::string& path) {
+nlohmann::ordered_json summaryJson(const RunSummary& s) {
   auto distribution = [](const Distribution& d) {
     return nlohmann::ordered_json{
         {"mean", d.mean}, {"p50", d.p50}, {"p95", d.p95}, {"p99", d.p99}, {"max", d.max}};
@@ -477,7 +477,11 @@ void writeSummaryJson(const RunSummary& s, const std::string& path) {
                  {"ns_per_update",
                   s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0}};
   j["energy"] = {{"initial", s.energy_initial}, {"final", s.energy_final}};
-  writeFileAtomically(path, jsonText(j));
+  return j;
+}
+
+void writeSummaryJson(const RunSummary& s, const std::string& path) {
+  writeFileAtomically(path, jsonText(summaryJson(s)));
 }
 
 }  // namespace sweep

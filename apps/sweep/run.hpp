@@ -98,7 +98,8 @@ long stepCount(double t_start, double t_end, double h);
 // JSON text of a document, indented by 2; NaN and infinities become null.
 std::string jsonText(const nlohmann::ordered_json& json);
 
-// summary.json, written atomically
+// summary.json's document, and the file written atomically
+nlohmann::ordered_json summaryJson(const RunSummary& summary);
 void writeSummaryJson(const RunSummary& summary, const std::string& path);
 
 // Shortest text that reads back to the same double (std::to_chars).

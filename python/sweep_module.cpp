@@ -1,0 +1,524 @@
+// The `sweep` Python module (pybind11): scenes run whole or stepped, their state and contacts as
+// numpy arrays, and the Lagrangian layer of a URDF model. docs/python.md is its guide; every
+// input error is raised as sweep.InputError (a ValueError) with the command line's message.
+#include <pybind11/eigen.h>
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_file.hpp"
+#include "contact/detection.hpp"
+#include "framework/crba.hpp"
+#include "framework/dynamics.hpp"
+#include "framework/energy.hpp"
+#include "framework/error.hpp"
+#include "framework/kinematics.hpp"
+#include "framework/rnea.hpp"
+#include "framework/urdf_import.hpp"
+#include "integrators/time_stepper.hpp"
+
+namespace py = pybind11;
+
+namespace sweep {
+namespace {
+
+// nlohmann JSON to Python objects (the summary, as summary.json holds it)
+py::object toPython(const nlohmann::ordered_json& j) {
+  if (j.is_object()) {
+    py::dict d;
+    for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = toPython(it.value());
+    return std::move(d);
+  }
+  if (j.is_array()) {
+    py::list l;
+    for (const auto& x : j) l.append(toPython(x));
+    return std::move(l);
+  }
+  if (j.is_boolean()) return py::bool_(j.get<bool>());
+  if (j.is_number_integer()) return py::int_(j.get<long long>());
+  if (j.is_number()) return py::float_(j.get<double>());
+  if (j.is_string()) return py::str(j.get<std::string>());
+  return py::none();
+}
+
+// A scene's overrides as `--set` takes them: {"scheme.name": "catching-up", "time.step": 1e-4}
+std::vector<std::string> overrideList(const std::optional<py::dict>& overrides) {
+  std::vector<std::string> out;
+  if (!overrides) return out;
+  for (const auto& [key, value] : *overrides) {
+    std::string text;
+    if (py::isinstance<py::bool_>(value))
+      text = value.cast<bool>() ? "true" : "false";
+    else if (py::isinstance<py::float_>(value))
+      text = exactNumber(value.cast<double>());
+    else
+      text = py::str(value).cast<std::string>();
+    out.push_back(py::str(key).cast<std::string>() + "=" + text);
+  }
+  return out;
+}
+
+SceneFile loadScene(const std::string& path, const std::optional<py::dict>& overrides,
+                    const std::vector<std::string>& settings_files,
+                    const std::optional<std::string>& scheme, std::optional<double> dt,
+                    std::optional<double> t_end) {
+  SceneFile file = loadSceneFile(path, overrideList(overrides), settings_files);
+  if (scheme) file.run.scheme.scheme = schemeFromName(*scheme);
+  if (dt) {
+    if (!(*dt > 0.0) || !std::isfinite(*dt))
+      throw InputError("dt: must be > 0, got " + exactNumber(*dt));
+    file.run.scheme.h = *dt;
+  }
+  if (t_end) {
+    if (!(*t_end > 0.0) || !std::isfinite(*t_end))
+      throw InputError("t_end: must be > 0, got " + exactNumber(*t_end));
+    file.run.t_end = *t_end;
+  }
+  file.run.scheme.validate();
+  return file;
+}
+
+// Runs `work` on a thread of its own with the GIL released, while this thread checks for
+// Ctrl-C (Python's signal handlers run on the main thread only): on one, `stop` is set, the
+// work finishes its step and KeyboardInterrupt is raised.
+template <class Work>
+void runInterruptibly(std::atomic<bool>& stop, Work&& work) {
+  std::mutex mutex;
+  std::condition_variable done_signal;
+  bool done = false;
+  std::exception_ptr failure;
+  std::thread worker([&] {
+    try {
+      work();
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    done = true;
+    done_signal.notify_one();
+  });
+  bool interrupted = false;
+  {
+    py::gil_scoped_release release;
+    std::unique_lock<std::mutex> lock(mutex);
+    while (!done_signal.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; })) {
+      lock.unlock();
+      {
+        py::gil_scoped_acquire acquire;
+        if (PyErr_CheckSignals() != 0) {
+          interrupted = true;
+          stop = true;
+        }
+      }
+      lock.lock();
+    }
+  }
+  worker.join();
+  if (failure) std::rethrow_exception(failure);
+  if (interrupted) throw py::error_already_set();
+}
+
+py::dict stepStatsDict(const StepStats& s) {
+  py::dict d;
+  d["step"] = s.step;
+  d["t"] = s.t;
+  d["candidates"] = s.candidates;
+  d["active"] = s.active;
+  d["iterations_stage1"] = s.iterations_stage1;
+  d["iterations_stage2"] = s.iterations_stage2;
+  d["residual"] = s.residual;
+  d["cap_hit"] = s.cap_hit;
+  d["status"] = solverStatusName(s.status);
+  d["penetration_max"] = s.penetration_max;
+  d["penetration_sum"] = s.penetration_sum;
+  d["kinetic"] = s.kinetic;
+  d["potential"] = s.potential;
+  d["work_normal"] = s.work_normal;
+  d["work_tangent"] = s.work_tangent;
+  return d;
+}
+
+// A scene stepped from Python: the scene file, its model and the stepper, owned together.
+class Simulation {
+ public:
+  Simulation(const std::string& path, const std::optional<py::dict>& overrides,
+             const std::vector<std::string>& settings_files,
+             const std::optional<std::string>& scheme, std::optional<double> dt)
+      : file_(loadScene(path, overrides, settings_files, scheme, dt, std::nullopt)),
+        scene_(std::make_unique<Scene>(buildSceneFile(file_))),
+        stepper_(std::make_unique<TimeStepper>(scene_->model, scene_->cmodel, file_.run.scheme,
+                                               scene_->forces)) {
+    stepper_->reset(0.0, scene_->q0, scene_->v0);
+  }
+
+  py::dict step() {
+    const StepStats* s = nullptr;
+    {
+      py::gil_scoped_release release;
+      s = &stepper_->step();
+    }
+    checkFinite();
+    return stepStatsDict(*s);
+  }
+
+  // Steps until t_end (the scene's end time by default); callback(sim) after each step, which
+  // may return False to stop. Returns the number of steps.
+  long run(std::optional<double> t_end, const std::optional<py::function>& callback) {
+    const double end = t_end ? *t_end : file_.run.t_end;
+    const long steps = stepCount(stepper_->time(), end, file_.run.scheme.h);
+    long done = 0;
+    if (callback) {
+      for (; done < steps; ++done) {
+        step();
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        const py::object keep_going =
+            (*callback)(py::cast(this, py::return_value_policy::reference));
+        if (!keep_going.is_none() && !keep_going.cast<bool>()) return done + 1;
+      }
+      return done;
+    }
+    std::atomic<bool> stop{false};
+    runInterruptibly(stop, [&] {
+      for (; done < steps && !stop.load(); ++done) {
+        stepper_->step();
+        if (!stepper_->q().allFinite() || !stepper_->v().allFinite()) return;
+      }
+    });
+    checkFinite();
+    return done;
+  }
+
+  void setState(double t, const VectorX& q, const VectorX& v) { stepper_->reset(t, q, v); }
+
+  // contacts of the last step: witness points, normals, gaps, impulses, body indices
+  py::dict contacts() const {
+    const auto& contacts = stepper_->contactData().contacts;
+    const auto& impulses = stepper_->impulses();
+    const py::ssize_t n = static_cast<py::ssize_t>(contacts.size());
+    py::array_t<double> point_a({n, py::ssize_t{3}}), point_b({n, py::ssize_t{3}}),
+        normal({n, py::ssize_t{3}}), impulse({n, py::ssize_t{3}}), gap(n);
+    py::array_t<int> body_a(n), body_b(n);
+    auto pa = point_a.mutable_unchecked<2>(), pb = point_b.mutable_unchecked<2>(),
+         nm = normal.mutable_unchecked<2>(), im = impulse.mutable_unchecked<2>();
+    auto g = gap.mutable_unchecked<1>();
+    auto ba = body_a.mutable_unchecked<1>(), bb = body_b.mutable_unchecked<1>();
+    for (py::ssize_t c = 0; c < n; ++c) {
+      const Contact& k = contacts[c];
+      const Vector3 P =
+          c < static_cast<py::ssize_t>(impulses.size()) ? impulses[c] : Vector3::Zero();
+      for (int i = 0; i < 3; ++i) {
+        pa(c, i) = k.point_a[i];
+        pb(c, i) = k.point_b[i];
+        nm(c, i) = k.normal[i];
+        im(c, i) = P[i];
+      }
+      g(c) = k.gap;
+      ba(c) = k.body_a.kind == BodyRef::Kind::Dynamic ? k.body_a.index : -1;
+      bb(c) = k.body_b.kind == BodyRef::Kind::Dynamic ? k.body_b.index : -1;
+    }
+    py::dict d;
+    d["point_a"] = point_a;
+    d["point_b"] = point_b;
+    d["normal"] = normal;
+    d["gap"] = gap;
+    d["impulse"] = impulse;
+    d["body_a"] = body_a;
+    d["body_b"] = body_b;
+    return d;
+  }
+
+  // every bounded shape at the current state, in world coordinates (planes are left out)
+  py::list shapes() {
+    const Model& model = scene_->model;
+    const ContactModel& cmodel = scene_->cmodel;
+    forwardKinematics(model, data_, stepper_->q(), stepper_->v());
+    updateGeometryPoses(model, data_, cmodel, stepper_->time(), cdata_);
+    py::list out;
+    for (int g = 0; g < cmodel.size(); ++g) {
+      const Geometry& geometry = cmodel.geometries[g];
+      const Shape& shape = geometry.shape;
+      if (isUnbounded(shape)) continue;
+      const bool driven = geometry.body.kind == BodyRef::Kind::Driven;
+      if (driven && !model.driven_bodies[geometry.body.index].presentAt(stepper_->time())) continue;
+      const Pose& pose = cdata_.geometry_pose[g];
+      py::dict d;
+      d["name"] = geometry.name;
+      d["type"] = shapeTypeName(shape.type);
+      d["kind"] = geometry.body.kind == BodyRef::Kind::Dynamic ? "dynamic"
+                  : driven                                     ? "driven"
+                                                               : "world";
+      d["body"] = geometry.body.kind == BodyRef::Kind::Dynamic ? geometry.body.index : -1;
+      d["position"] = Vector3(pose.translation);
+      d["rotation"] = Matrix3(pose.rotation);
+      d["radius"] = shape.radius;
+      if (shape.type == ShapeType::Segment) {
+        d["start"] = Vector3(pose.apply(shape.segment_start));
+        d["end"] = Vector3(pose.apply(shape.segment_end));
+      }
+      if (shape.type == ShapeType::Box) d["size"] = Vector3(2.0 * shape.half_extents);
+      if (shape.type == ShapeType::Cylinder || shape.type == ShapeType::Capsule)
+        d["length"] = shape.length;
+      if (shape.type == ShapeType::Polygon) {
+        MatrixX vertices(shape.vertices.size(), 3);
+        for (std::size_t k = 0; k < shape.vertices.size(); ++k)
+          vertices.row(k) = pose.apply(shape.vertices[k]).transpose();
+        d["vertices"] = vertices;
+      }
+      out.append(d);
+    }
+    return out;
+  }
+
+  const TimeStepper& stepper() const { return *stepper_; }
+  TimeStepper& stepper() { return *stepper_; }
+  const SceneFile& file() const { return file_; }
+  const Scene& scene() const { return *scene_; }
+
+ private:
+  void checkFinite() const {
+    if (!stepper_->q().allFinite() || !stepper_->v().allFinite())
+      throw std::runtime_error("the state stopped being finite at t = " +
+                               exactNumber(stepper_->time()));
+  }
+
+  SceneFile file_;
+  std::unique_ptr<Scene> scene_;
+  std::unique_ptr<TimeStepper> stepper_;
+  Data data_{scene_->model};  // shapes(): its own kinematics, the stepper's untouched
+  ContactData cdata_{scene_->model, scene_->cmodel};
+};
+
+// A read-only numpy view of a vector the owner keeps (no copy).
+py::array view(const VectorX& x, py::handle owner) {
+  py::array a(py::dtype::of<double>(), {x.size()}, {sizeof(double)}, x.data(), owner);
+  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return a;
+}
+
+// The Lagrangian layer of a model (URDF): each call works on its own copy of the state, so no
+// result depends on an earlier call.
+class Dynamics {
+ public:
+  using Input = Eigen::Ref<const VectorX>;
+
+  explicit Dynamics(Model model)
+      : model_(std::move(model)), data_(model_), q_(model_.nq), v_(model_.nv), a_(model_.nv) {
+    without_gravity_ = model_;
+    without_gravity_.gravity.setZero();
+    for (const Body& body : model_.bodies) {
+      const int nv = body.joint.nv();
+      if (nv == 1) {
+        dof_names_.push_back(body.joint_name);
+      } else if (body.joint.type == JointType::Planar) {
+        for (const char* s : {":x", ":y", ":theta"}) dof_names_.push_back(body.joint_name + s);
+      } else if (body.joint.type == JointType::Floating) {
+        for (const char* s : {":vx", ":vy", ":vz", ":wx", ":wy", ":wz"})
+          dof_names_.push_back(body.joint_name + s);
+      } else {
+        for (int k = 0; k < nv; ++k)
+          dof_names_.push_back(body.joint_name + ":" + std::to_string(k));
+      }
+    }
+  }
+
+  const Model& model() const { return model_; }
+  const std::vector<std::string>& dofNames() const { return dof_names_; }
+  int dofIndex(const std::string& name) const {
+    for (int k = 0; k < static_cast<int>(dof_names_.size()); ++k)
+      if (dof_names_[k] == name) return k;
+    throw InputError("no degree of freedom named '" + name + "'");
+  }
+
+  // Inputs are numpy arrays read in place (Eigen::Ref) and copied into buffers sized once;
+  // results are copied out (no view of Data, which the next call changes).
+  MatrixX massMatrix(Input q) {
+    crba(model_, data_, takeQ(q));
+    return denseMassMatrix(model_, data_);
+  }
+  VectorX rneaForces(Input q, Input v, Input a) {
+    return rnea(model_, data_, takeQ(q), take(v, "v", v_), take(a, "a", a_));
+  }
+  VectorX bias(Input q, Input v) { return biasForces(model_, data_, takeQ(q), take(v, "v", v_)); }
+  VectorX gravityForces(Input q) {
+    a_.setZero();
+    return rnea(model_, data_, takeQ(q), a_, a_);
+  }
+  VectorX coriolisForces(Input q, Input v) {
+    return biasForces(without_gravity_, data_, takeQ(q), take(v, "v", v_));
+  }
+  VectorX acceleration(Input q, Input v, Input tau) {
+    return forwardDynamics(model_, data_, takeQ(q), take(v, "v", v_), take(tau, "tau", a_));
+  }
+  double kinetic(Input q, Input v) {
+    forwardKinematics(model_, data_, takeQ(q), take(v, "v", v_));
+    return kineticEnergy(model_, data_);
+  }
+  double potential(Input q) {
+    forwardKinematics(model_, data_, takeQ(q));
+    return potentialEnergy(model_, data_);
+  }
+  std::pair<Matrix3, Vector3> bodyPose(Input q, const std::string& body) {
+    const int b = model_.bodyIndex(body);
+    forwardKinematics(model_, data_, takeQ(q));
+    return {data_.world_pose[b].rotation, data_.world_pose[b].translation};
+  }
+  Vector3 centerOfMass(Input q) {
+    forwardKinematics(model_, data_, takeQ(q));
+    double mass = 0.0;
+    Vector3 moment = Vector3::Zero();
+    for (std::size_t b = 0; b < model_.bodies.size(); ++b) {
+      const Inertia& I = model_.bodies[b].inertia;
+      mass += I.mass;
+      moment += I.mass * data_.world_pose[b].apply(I.com);
+    }
+    if (!(mass > 0.0)) throw InputError("the model has no mass");
+    return moment / mass;
+  }
+
+ private:
+  const VectorX& takeQ(Input q) {
+    if (q.size() != model_.nq)
+      throw InputError("q: must have " + std::to_string(model_.nq) + " entries, got " +
+                       std::to_string(q.size()));
+    if (!q.allFinite()) throw InputError("q: must be finite");
+    q_ = q;
+    return q_;
+  }
+  const VectorX& take(Input x, const char* name, VectorX& buffer) const {
+    if (x.size() != model_.nv)
+      throw InputError(std::string(name) + ": must have " + std::to_string(model_.nv) +
+                       " entries, got " + std::to_string(x.size()));
+    if (!x.allFinite()) throw InputError(std::string(name) + ": must be finite");
+    buffer = x;
+    return buffer;
+  }
+
+  Model model_, without_gravity_;
+  Data data_;  // of model_; without_gravity_ has the same bodies, so it serves both
+  VectorX q_, v_, a_;
+  std::vector<std::string> dof_names_;
+};
+
+}  // namespace
+}  // namespace sweep
+
+PYBIND11_MODULE(sweep, m) {
+  using namespace sweep;
+  m.doc() = "Sweep: nonsmooth contact dynamics of multibody systems (docs/python.md)";
+  m.attr("__version__") = "0.1.0";
+  static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      input_error(e.what());
+    }
+  });
+
+  m.def(
+      "run",
+      [](const std::string& scene, const std::optional<std::string>& out,
+         const std::optional<py::dict>& overrides, const std::vector<std::string>& settings_files,
+         const std::optional<std::string>& scheme, std::optional<double> dt,
+         std::optional<double> t_end) {
+        const SceneFile file = loadScene(scene, overrides, settings_files, scheme, dt, t_end);
+        const Scene built = buildSceneFile(file);
+        RunOptions options;
+        options.out_dir = out.value_or("");
+        std::atomic<bool> stop{false};
+        options.stop = &stop;
+        RunSummary summary;
+        runInterruptibly(stop, [&] { summary = runScene(built, file.run, options); });
+        return toPython(summaryJson(summary));
+      },
+      py::arg("scene"), py::arg("out") = py::none(), py::arg("overrides") = py::none(),
+      py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
+      py::arg("dt") = py::none(), py::arg("t_end") = py::none(),
+      "Run a scene file as `sweep run` does (writing its results to `out` when given) and "
+      "return the summary as summary.json holds it. overrides: {path: value}, as --set.");
+
+  py::class_<Simulation>(m, "Simulation", "A scene stepped from Python.")
+      .def(py::init<const std::string&, const std::optional<py::dict>&,
+                    const std::vector<std::string>&, const std::optional<std::string>&,
+                    std::optional<double>>(),
+           py::arg("scene"), py::arg("overrides") = py::none(),
+           py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
+           py::arg("dt") = py::none())
+      .def("step", &Simulation::step, "One step; returns its statistics.")
+      .def("run", &Simulation::run, py::arg("t_end") = py::none(), py::arg("callback") = py::none(),
+           "Step to t_end (default: the scene's end); callback(sim) after each step may return "
+           "False to stop. Returns the number of steps.")
+      .def("set_state", &Simulation::setState, py::arg("t"), py::arg("q"), py::arg("v"))
+      .def("contacts", &Simulation::contacts, "The last step's contacts as numpy arrays.")
+      .def("shapes", &Simulation::shapes,
+           "Every bounded shape at the current state, in world coordinates: a dict each with "
+           "name, type, kind (dynamic, driven, world), body, position, rotation, radius, and "
+           "start / end (segments), size (boxes), length (cylinders, capsules), vertices "
+           "(polygons).")
+      .def_property_readonly("last_step",
+                             [](const Simulation& s) { return stepStatsDict(s.stepper().stats()); })
+      .def("energy", [](Simulation& s) { return s.stepper().energy(); })
+      .def_property_readonly("t", [](const Simulation& s) { return s.stepper().time(); })
+      .def_property_readonly("dt", [](const Simulation& s) { return s.file().run.scheme.h; })
+      .def_property_readonly("t_end", [](const Simulation& s) { return s.file().run.t_end; })
+      .def_property_readonly(
+          "scheme", [](const Simulation& s) { return schemeName(s.file().run.scheme.scheme); })
+      .def_property_readonly("dimension",
+                             [](const Simulation& s) { return s.file().spec.dimension; })
+      .def_property_readonly("nq", [](const Simulation& s) { return s.scene().model.nq; })
+      .def_property_readonly("nv", [](const Simulation& s) { return s.scene().model.nv; })
+      .def_property_readonly(
+          "q", [](py::object self) { return view(self.cast<Simulation&>().stepper().q(), self); },
+          "Generalized coordinates (a read-only view, valid until the next step).")
+      .def_property_readonly(
+          "v", [](py::object self) { return view(self.cast<Simulation&>().stepper().v(), self); },
+          "Generalized velocities (a read-only view, valid until the next step).");
+
+  py::class_<Dynamics>(m, "Model", "The Lagrangian layer of a multibody model.")
+      .def_static(
+          "from_urdf",
+          [](const std::string& path, bool floating_base) {
+            UrdfOptions options;
+            options.floating_base = floating_base;
+            return Dynamics(loadUrdf(path, options));
+          },
+          py::arg("path"), py::arg("floating_base") = false)
+      .def_property_readonly("nq", [](const Dynamics& d) { return d.model().nq; })
+      .def_property_readonly("nv", [](const Dynamics& d) { return d.model().nv; })
+      .def_property_readonly("gravity", [](const Dynamics& d) { return d.model().gravity; })
+      .def_property_readonly("body_names",
+                             [](const Dynamics& d) {
+                               std::vector<std::string> names;
+                               for (const Body& b : d.model().bodies) names.push_back(b.name);
+                               return names;
+                             })
+      .def_property_readonly("dof_names", &Dynamics::dofNames,
+                             "A name per entry of v: the joint's, with :x, :y, :theta (planar) "
+                             "or :vx ... :wz (floating) where it has several")
+      .def("dof_index", &Dynamics::dofIndex, py::arg("name"))
+      .def("neutral_configuration",
+           [](const Dynamics& d) { return d.model().neutralConfiguration(); })
+      .def("mass_matrix", &Dynamics::massMatrix, py::arg("q"))
+      .def("rnea", &Dynamics::rneaForces, py::arg("q"), py::arg("v"), py::arg("a"))
+      .def("bias_forces", &Dynamics::bias, py::arg("q"), py::arg("v"),
+           "Coriolis, centrifugal and gravity forces: M(q) a + bias = tau")
+      .def("gravity_forces", &Dynamics::gravityForces, py::arg("q"))
+      .def("coriolis_forces", &Dynamics::coriolisForces, py::arg("q"), py::arg("v"),
+           "Coriolis and centrifugal forces, computed without gravity (not bias minus gravity)")
+      .def("forward_dynamics", &Dynamics::acceleration, py::arg("q"), py::arg("v"), py::arg("tau"))
+      .def("kinetic_energy", &Dynamics::kinetic, py::arg("q"), py::arg("v"))
+      .def("potential_energy", &Dynamics::potential, py::arg("q"))
+      .def("body_pose", &Dynamics::bodyPose, py::arg("q"), py::arg("body"),
+           "(R, p): the body frame's rotation and origin in world")
+      .def("center_of_mass", &Dynamics::centerOfMass, py::arg("q"));
+}

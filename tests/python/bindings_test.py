@@ -1,0 +1,169 @@
+#!/usr/bin/python3
+"""The `sweep` Python module against the `sweep` command and the C++ layer: a scene stepped
+from Python ends in the same bits as `sweep run`; run() returns summary.json's figures; input
+errors are sweep.InputError with the command's message; Ctrl-C stops a run; the URDF layer's
+identities (M symmetric positive definite, M a + bias = tau, bias = gravity + Coriolis).
+Usage: bindings_test.py SWEEP SOURCE_DIR (with the module on PYTHONPATH)"""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import unittest
+
+import numpy as np
+
+import sweep
+from scratch import scratch_dir
+
+SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
+SOURCE = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "."
+FUNNEL = os.path.join(SOURCE, "examples/funnel/funnel.yaml")
+ARM = os.path.join(SOURCE, "examples/archetypes/arm6.urdf")
+
+
+def final_state(folder):
+    with open(os.path.join(folder, "final_state.csv")) as f:
+        rows = list(csv.DictReader(f))
+    return {name: np.array([float(r["value"]) for r in rows if r["vector"] == name])
+            for name in ("t", "q", "v")}
+
+
+class Scenes(unittest.TestCase):
+    def test_stepping_gives_the_bits_of_sweep_run(self):
+        for scheme in ("moreau-jean", "catching-up"):
+            out = scratch_dir(self, "sweep_py_")
+            subprocess.run([SWEEP, "run", FUNNEL, "--scheme", scheme, "--t-end", "0.03", "--out",
+                            out, "--quiet", "--set", "output.vtk_interval=0"], check=True,
+                           capture_output=True)
+            cli = final_state(out)
+            sim = sweep.Simulation(FUNNEL, scheme=scheme)
+            steps = sim.run(t_end=0.03)
+            self.assertEqual(steps, 300)
+            self.assertEqual(sim.t, cli["t"][0])
+            np.testing.assert_array_equal(sim.q, cli["q"])
+            np.testing.assert_array_equal(sim.v, cli["v"])
+            self.assertGreater(len(sim.contacts()["gap"]), 10)
+
+    def test_run_returns_the_summary(self):
+        out = scratch_dir(self, "sweep_py_")
+        summary = sweep.run(FUNNEL, out=out, t_end=0.02, overrides={"output.vtk_interval": 0})
+        with open(os.path.join(out, "summary.json")) as f:
+            written = json.load(f)
+        for key in ("scheme", "dt", "steps", "penetration", "iterations", "energy"):
+            self.assertEqual(summary[key], written[key], key)
+        self.assertEqual(summary["steps"], 200)
+
+    def test_step_by_step_with_a_callback(self):
+        sim = sweep.Simulation(FUNNEL, overrides={"scheme.name": "moreau-jean"})
+        times = []
+        steps = sim.run(t_end=0.005, callback=lambda s: times.append(s.t) or len(times) < 20)
+        self.assertEqual(steps, 20)
+        self.assertEqual(len(times), 20)
+        self.assertAlmostEqual(times[-1], 20 * sim.dt)
+        stats = sim.step()
+        self.assertEqual(stats["step"], 21)
+        self.assertEqual(sim.scheme, "moreau-jean")
+
+    def test_state_views_and_set_state(self):
+        sim = sweep.Simulation(FUNNEL)
+        q = sim.q
+        self.assertFalse(q.flags.writeable)
+        with self.assertRaises(ValueError):
+            q[0] = 1.0
+        q0, v0 = np.array(sim.q), np.array(sim.v)
+        sim.run(t_end=0.002)
+        sim.set_state(0.0, q0, v0)
+        self.assertEqual(sim.t, 0.0)
+        np.testing.assert_array_equal(sim.q, q0)
+
+    def test_input_errors_carry_the_command_line_message(self):
+        bad = {"generators[0].count": -5}
+        result = subprocess.run([SWEEP, "check", FUNNEL, "--set", "generators[0].count=-5"],
+                                capture_output=True, text=True)
+        self.assertEqual(result.returncode, 2)
+        with self.assertRaises(sweep.InputError) as error:
+            sweep.Simulation(FUNNEL, overrides=bad)
+        self.assertIn(str(error.exception), result.stderr)
+        self.assertIsInstance(error.exception, ValueError)
+        with self.assertRaises(sweep.InputError):
+            sweep.run(os.path.join(SOURCE, "no_such_scene.yaml"))
+        with self.assertRaises(sweep.InputError):
+            sweep.Simulation(FUNNEL, dt=-1.0)
+        with self.assertRaises(sweep.InputError):
+            sweep.Simulation(FUNNEL, scheme="leapfrog")
+
+    def test_ctrl_c_stops_a_run(self):
+        script = textwrap.dedent(f"""
+            import sys, time
+            import sweep
+            sim = sweep.Simulation({FUNNEL!r}, overrides={{"generators[0].count": 500,
+                                   "generators[0].orifice": 0.008}})
+            print("ready", flush=True)
+            start = time.time()
+            try:
+                sim.run(t_end=100.0)
+            except KeyboardInterrupt:
+                print("interrupted at", sim.t, "after", round(time.time() - start, 2), flush=True)
+                sys.exit(0)
+            sys.exit(1)
+            """)
+        env = dict(os.environ)
+        process = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                                   text=True, env=env)
+        self.assertEqual(process.stdout.readline().strip(), "ready")
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+        out, _ = process.communicate(timeout=30)
+        self.assertEqual(process.returncode, 0, out)
+        self.assertIn("interrupted at", out)
+        t = float(out.split()[2])
+        self.assertGreater(t, 0.0)
+        self.assertLess(t, 100.0)
+
+
+class Urdf(unittest.TestCase):
+    def setUp(self):
+        self.model = sweep.Model.from_urdf(ARM)
+        rng = np.random.default_rng(3)
+        self.q = rng.uniform(-1, 1, self.model.nq)
+        self.v = rng.uniform(-1, 1, self.model.nv)
+
+    def test_names(self):
+        self.assertEqual(len(self.model.dof_names), self.model.nv)
+        for k, name in enumerate(self.model.dof_names):
+            self.assertEqual(self.model.dof_index(name), k)
+        with self.assertRaises(sweep.InputError):
+            self.model.dof_index("no such joint")
+
+    def test_dynamics_identities(self):
+        m, q, v = self.model, self.q, self.v
+        M = m.mass_matrix(q)
+        np.testing.assert_allclose(M, M.T, atol=1e-14)
+        self.assertGreater(np.linalg.eigvalsh(M).min(), 0.0)
+        tau = np.linspace(-1, 1, m.nv)
+        a = m.forward_dynamics(q, v, tau)
+        np.testing.assert_allclose(M @ a + m.bias_forces(q, v), tau, atol=1e-12)
+        np.testing.assert_allclose(m.rnea(q, v, a), tau, atol=1e-12)
+        np.testing.assert_allclose(m.gravity_forces(q) + m.coriolis_forces(q, v),
+                                   m.bias_forces(q, v), atol=1e-12)
+        self.assertAlmostEqual(m.kinetic_energy(q, v), 0.5 * v @ M @ v, places=12)
+        # the Coriolis forces are quadratic in v, and zero without it
+        np.testing.assert_allclose(m.coriolis_forces(q, 2 * v), 4 * m.coriolis_forces(q, v),
+                                   atol=1e-12)
+        np.testing.assert_array_equal(m.coriolis_forces(q, 0 * v), np.zeros(m.nv))
+
+    def test_bad_sizes_are_input_errors(self):
+        with self.assertRaises(sweep.InputError):
+            self.model.mass_matrix(np.zeros(self.model.nq + 1))
+        with self.assertRaises(sweep.InputError):
+            self.model.bias_forces(self.q, np.full(self.model.nv, np.nan))
+        with self.assertRaises(sweep.InputError):
+            sweep.Model.from_urdf(os.path.join(SOURCE, "no_such.urdf"))
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)
