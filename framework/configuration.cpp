@@ -83,6 +83,29 @@ void configurationRate(const Model& model, const VectorX& q, const VectorX& v, V
   }
 }
 
+namespace {
+VectorX rotateFloatingLinear(const Model& model, const VectorX& q, const VectorX& v, bool to_body) {
+  VectorX out = v;
+  for (const Body& b : model.bodies) {
+    if (b.joint.type != JointType::Floating) continue;
+    const Eigen::Quaterniond rotation(q[b.q_index + 6], q[b.q_index + 3], q[b.q_index + 4],
+                                      q[b.q_index + 5]);
+    const Matrix3 R = rotation.normalized().toRotationMatrix();
+    const Vector3 linear = v.segment<3>(b.v_index);
+    out.segment<3>(b.v_index) = to_body ? Vector3(R.transpose() * linear) : Vector3(R * linear);
+  }
+  return out;
+}
+}  // namespace
+
+VectorX velocityToBodyFrame(const Model& model, const VectorX& q, const VectorX& v) {
+  return rotateFloatingLinear(model, q, v, true);
+}
+
+VectorX velocityFromBodyFrame(const Model& model, const VectorX& q, const VectorX& v_body) {
+  return rotateFloatingLinear(model, q, v_body, false);
+}
+
 void normalizeConfiguration(const Model& model, VectorX& q) {
   for (const Body& b : model.bodies)
     if (b.joint.type == JointType::Floating)

@@ -20,4 +20,12 @@ void configurationRate(const Model& model, const VectorX& q, const VectorX& v, V
 // Renormalizes every quaternion of q in place.
 void normalizeConfiguration(const Model& model, VectorX& q);
 
+// Floating joints' velocities between Sweep's convention (linear velocity of the body origin
+// in the parent frame, angular velocity in body axes) and the body-frame twist of Pinocchio's
+// free flyer (both in body axes, linear first): the linear part is rotated by R(q)^T. DART's
+// FreeJoint uses the same body-frame twist with the angular part first. Other joints' entries
+// are copied.
+VectorX velocityToBodyFrame(const Model& model, const VectorX& q, const VectorX& v);
+VectorX velocityFromBodyFrame(const Model& model, const VectorX& q, const VectorX& v_body);
+
 }  // namespace sweep

@@ -94,6 +94,29 @@ int Model::jointIndex(const std::string& name) const {
   throw InputError("model: no joint named '" + name + "'");
 }
 
+std::vector<std::string> Model::dofNames() const {
+  std::vector<std::string> names;
+  names.reserve(nv);
+  for (const Body& body : bodies) {
+    if (body.joint.type == JointType::Planar) {
+      for (const char* s : {":x", ":y", ":theta"}) names.push_back(body.joint_name + s);
+    } else if (body.joint.type == JointType::Floating) {
+      for (const char* s : {":vx", ":vy", ":vz", ":wx", ":wy", ":wz"})
+        names.push_back(body.joint_name + s);
+    } else if (body.joint.nv() == 1) {
+      names.push_back(body.joint_name);
+    }
+  }
+  return names;
+}
+
+int Model::dofIndex(const std::string& name) const {
+  const std::vector<std::string> names = dofNames();
+  for (int k = 0; k < static_cast<int>(names.size()); ++k)
+    if (names[k] == name) return k;
+  throw InputError("model: no degree of freedom named '" + name + "'");
+}
+
 VectorX Model::neutralConfiguration() const {
   VectorX q = VectorX::Zero(nq);
   for (const Body& b : bodies)

@@ -111,6 +111,10 @@ struct Model {
   const Component& componentOf(int body) const { return components[bodies[body].component]; }
   // the neutral configuration: zero coordinates, identity quaternions
   VectorX neutralConfiguration() const;
+  // A name per entry of v: the joint's, with :x :y :theta for a planar joint and
+  // :vx :vy :vz :wx :wy :wz for a floating one (docs/conventions.md)
+  std::vector<std::string> dofNames() const;
+  int dofIndex(const std::string& name) const;  // InputError naming it if absent
 };
 
 class ModelBuilder {

@@ -8,9 +8,10 @@ namespace sweep {
 namespace {
 
 // the RNEA passes, on poses and velocities already computed by forwardKinematics(q, v)
-const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, const VectorX* a) {
+const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, const VectorX* a,
+                          bool gravity = true) {
   Vector6 base_acceleration;
-  base_acceleration << Vector3::Zero(), -model.gravity;
+  base_acceleration << Vector3::Zero(), gravity ? Vector3(-model.gravity) : Vector3::Zero();
 
   // forward pass: a_i = X_i a_parent + S_i qdd_i + c_J + v_i x (S_i qd_i);  f_i = I a + v x* I v
   for (size_t i = 0; i < model.bodies.size(); ++i) {
@@ -50,6 +51,18 @@ const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const Vect
 const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
   forwardKinematics(model, data, q, v);
   return rneaPasses(model, data, v, nullptr);
+}
+
+const VectorX& gravityForces(const Model& model, Data& data, const VectorX& q) {
+  // at v = 0: the passes read the velocities and c_J the kinematics leave
+  const VectorX zero = VectorX::Zero(model.nv);
+  forwardKinematics(model, data, q, zero);
+  return rneaPasses(model, data, zero, nullptr);
+}
+
+const VectorX& coriolisForces(const Model& model, Data& data, const VectorX& q, const VectorX& v) {
+  forwardKinematics(model, data, q, v);
+  return rneaPasses(model, data, v, nullptr, /*gravity=*/false);
 }
 
 const VectorX& biasForcesFromKinematics(const Model& model, Data& data, const VectorX& v) {

@@ -14,6 +14,11 @@ const VectorX& rnea(const Model& model, Data& data, const VectorX& q, const Vect
 
 // data.tau = b(q, v) = Coriolis + centrifugal + gyroscopic + gravity generalized forces.
 const VectorX& biasForces(const Model& model, Data& data, const VectorX& q, const VectorX& v);
+// data.tau = g(q), the generalized gravity forces (b at v = 0).
+const VectorX& gravityForces(const Model& model, Data& data, const VectorX& q);
+// data.tau = C(q, v) v, the Coriolis, centrifugal and gyroscopic forces, computed without
+// gravity: b - g would lose the digits gravity's larger terms carry.
+const VectorX& coriolisForces(const Model& model, Data& data, const VectorX& q, const VectorX& v);
 // The same on the kinematics data already holds (forwardKinematics(q, v) just called).
 const VectorX& biasForcesFromKinematics(const Model& model, Data& data, const VectorX& v);
 

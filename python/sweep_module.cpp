@@ -18,6 +18,7 @@
 #include "apps/sweep/run.hpp"
 #include "apps/sweep/scene_file.hpp"
 #include "contact/detection.hpp"
+#include "framework/configuration.hpp"
 #include "framework/crba.hpp"
 #include "framework/dynamics.hpp"
 #include "framework/energy.hpp"
@@ -312,32 +313,16 @@ class Dynamics {
   using Input = Eigen::Ref<const VectorX>;
 
   explicit Dynamics(Model model)
-      : model_(std::move(model)), data_(model_), q_(model_.nq), v_(model_.nv), a_(model_.nv) {
-    without_gravity_ = model_;
-    without_gravity_.gravity.setZero();
-    for (const Body& body : model_.bodies) {
-      const int nv = body.joint.nv();
-      if (nv == 1) {
-        dof_names_.push_back(body.joint_name);
-      } else if (body.joint.type == JointType::Planar) {
-        for (const char* s : {":x", ":y", ":theta"}) dof_names_.push_back(body.joint_name + s);
-      } else if (body.joint.type == JointType::Floating) {
-        for (const char* s : {":vx", ":vy", ":vz", ":wx", ":wy", ":wz"})
-          dof_names_.push_back(body.joint_name + s);
-      } else {
-        for (int k = 0; k < nv; ++k)
-          dof_names_.push_back(body.joint_name + ":" + std::to_string(k));
-      }
-    }
-  }
+      : model_(std::move(model)),
+        data_(model_),
+        dof_names_(model_.dofNames()),
+        q_(model_.nq),
+        v_(model_.nv),
+        a_(model_.nv) {}
 
   const Model& model() const { return model_; }
   const std::vector<std::string>& dofNames() const { return dof_names_; }
-  int dofIndex(const std::string& name) const {
-    for (int k = 0; k < static_cast<int>(dof_names_.size()); ++k)
-      if (dof_names_[k] == name) return k;
-    throw InputError("no degree of freedom named '" + name + "'");
-  }
+  int dofIndex(const std::string& name) const { return model_.dofIndex(name); }
 
   // Inputs are numpy arrays read in place (Eigen::Ref) and copied into buffers sized once;
   // results are copied out (no view of Data, which the next call changes).
@@ -349,41 +334,29 @@ class Dynamics {
     return rnea(model_, data_, takeQ(q), take(v, "v", v_), take(a, "a", a_));
   }
   VectorX bias(Input q, Input v) { return biasForces(model_, data_, takeQ(q), take(v, "v", v_)); }
-  VectorX gravityForces(Input q) {
-    a_.setZero();
-    return rnea(model_, data_, takeQ(q), a_, a_);
+  VectorX gravity(Input q) { return gravityForces(model_, data_, takeQ(q)); }
+  VectorX coriolis(Input q, Input v) {
+    return coriolisForces(model_, data_, takeQ(q), take(v, "v", v_));
   }
-  VectorX coriolisForces(Input q, Input v) {
-    return biasForces(without_gravity_, data_, takeQ(q), take(v, "v", v_));
+  VectorX toBodyFrame(Input q, Input v) {
+    return velocityToBodyFrame(model_, takeQ(q), take(v, "v", v_));
+  }
+  VectorX fromBodyFrame(Input q, Input v) {
+    return velocityFromBodyFrame(model_, takeQ(q), take(v, "v_body", v_));
   }
   VectorX acceleration(Input q, Input v, Input tau) {
     return forwardDynamics(model_, data_, takeQ(q), take(v, "v", v_), take(tau, "tau", a_));
   }
   double kinetic(Input q, Input v) {
-    forwardKinematics(model_, data_, takeQ(q), take(v, "v", v_));
-    return kineticEnergy(model_, data_);
+    return kineticEnergy(model_, data_, takeQ(q), take(v, "v", v_));
   }
-  double potential(Input q) {
-    forwardKinematics(model_, data_, takeQ(q));
-    return potentialEnergy(model_, data_);
-  }
+  double potential(Input q) { return potentialEnergy(model_, data_, takeQ(q)); }
   std::pair<Matrix3, Vector3> bodyPose(Input q, const std::string& body) {
     const int b = model_.bodyIndex(body);
     forwardKinematics(model_, data_, takeQ(q));
     return {data_.world_pose[b].rotation, data_.world_pose[b].translation};
   }
-  Vector3 centerOfMass(Input q) {
-    forwardKinematics(model_, data_, takeQ(q));
-    double mass = 0.0;
-    Vector3 moment = Vector3::Zero();
-    for (std::size_t b = 0; b < model_.bodies.size(); ++b) {
-      const Inertia& I = model_.bodies[b].inertia;
-      mass += I.mass;
-      moment += I.mass * data_.world_pose[b].apply(I.com);
-    }
-    if (!(mass > 0.0)) throw InputError("the model has no mass");
-    return moment / mass;
-  }
+  Vector3 com(Input q) { return centerOfMass(model_, data_, takeQ(q)); }
 
  private:
   const VectorX& takeQ(Input q) {
@@ -403,10 +376,10 @@ class Dynamics {
     return buffer;
   }
 
-  Model model_, without_gravity_;
-  Data data_;  // of model_; without_gravity_ has the same bodies, so it serves both
-  VectorX q_, v_, a_;
+  Model model_;
+  Data data_;
   std::vector<std::string> dof_names_;
+  VectorX q_, v_, a_;
 };
 
 }  // namespace
@@ -512,13 +485,17 @@ PYBIND11_MODULE(sweep, m) {
       .def("rnea", &Dynamics::rneaForces, py::arg("q"), py::arg("v"), py::arg("a"))
       .def("bias_forces", &Dynamics::bias, py::arg("q"), py::arg("v"),
            "Coriolis, centrifugal and gravity forces: M(q) a + bias = tau")
-      .def("gravity_forces", &Dynamics::gravityForces, py::arg("q"))
-      .def("coriolis_forces", &Dynamics::coriolisForces, py::arg("q"), py::arg("v"),
+      .def("gravity_forces", &Dynamics::gravity, py::arg("q"))
+      .def("coriolis_forces", &Dynamics::coriolis, py::arg("q"), py::arg("v"),
            "Coriolis and centrifugal forces, computed without gravity (not bias minus gravity)")
       .def("forward_dynamics", &Dynamics::acceleration, py::arg("q"), py::arg("v"), py::arg("tau"))
       .def("kinetic_energy", &Dynamics::kinetic, py::arg("q"), py::arg("v"))
       .def("potential_energy", &Dynamics::potential, py::arg("q"))
       .def("body_pose", &Dynamics::bodyPose, py::arg("q"), py::arg("body"),
            "(R, p): the body frame's rotation and origin in world")
-      .def("center_of_mass", &Dynamics::centerOfMass, py::arg("q"));
+      .def("center_of_mass", &Dynamics::com, py::arg("q"))
+      .def("velocity_to_body_frame", &Dynamics::toBodyFrame, py::arg("q"), py::arg("v"),
+           "Floating joints' velocities as Pinocchio's free flyer takes them: the linear part "
+           "in body axes (Sweep's is in the parent frame); other entries copied")
+      .def("velocity_from_body_frame", &Dynamics::fromBodyFrame, py::arg("q"), py::arg("v_body"));
 }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "framework/kinematics.hpp"
 #include "test_models.hpp"
 
 namespace sweep {
@@ -54,6 +55,36 @@ TEST(Configuration, PlanarAnglesAddExactly) {
   q << 1.0, 2.0, 3.0;
   dv << 0.5, -0.25, 10.0;  // angles are not wrapped: a spinning disk counts its turns
   EXPECT_EQ(integrate(model, q, dv), q + dv);
+}
+
+// The body-frame velocity of a floating joint is its body's spatial velocity in body
+// coordinates, which the kinematics computes on its own: (angular, linear) there.
+TEST_P(ConfigurationTest, BodyFrameVelocityIsTheBodysOwnTwist) {
+  const auto models = test::allModels();
+  const Model& model = models[GetParam()].model;
+  std::mt19937 rng(11);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  const VectorX body = velocityToBodyFrame(model, q, v);
+  EXPECT_LT((velocityFromBodyFrame(model, q, body) - v).norm(), 1e-14 * v.norm());
+  Data data(model);
+  forwardKinematics(model, data, q, v);
+  int floating = 0;
+  for (std::size_t b = 0; b < model.bodies.size(); ++b) {
+    const Body& body_b = model.bodies[b];
+    if (body_b.joint.type != JointType::Floating) {
+      for (int k = 0; k < body_b.joint.nv(); ++k)
+        EXPECT_EQ(body[body_b.v_index + k], v[body_b.v_index + k]);
+      continue;
+    }
+    ++floating;
+    if (body_b.parent >= 0) continue;  // a root: its twist is its joint's
+    EXPECT_LT((body.segment<3>(body_b.v_index) - data.velocity[b].tail<3>()).norm(), 1e-12);
+    EXPECT_LT((body.segment<3>(body_b.v_index + 3) - data.velocity[b].head<3>()).norm(), 1e-12);
+  }
+  if (floating == 0) {
+    EXPECT_EQ(body, v);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllModels, ConfigurationTest, ::testing::Range(0, test::modelCount()),

@@ -82,6 +82,43 @@ TEST_P(RneaTest, PowerBalanceOfBias) {
   EXPECT_NEAR(v.dot(coriolis), 0.5 * v.dot(mdot * v), 1e-7 * std::max(1.0, coriolis.norm()));
 }
 
+TEST_P(RneaTest, GravityAndCoriolisComputedApartSumToTheBias) {
+  const Model& model = *model_;
+  Data data(model);
+  std::mt19937 rng(29);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  const VectorX bias = biasForces(model, data, q, v);
+  const VectorX gravity = gravityForces(model, data, q);
+  const VectorX coriolis = coriolisForces(model, data, q, v);
+  EXPECT_LT((gravity + coriolis - bias).norm(), 1e-12 * std::max(1.0, bias.norm()));
+  const VectorX zero = VectorX::Zero(model.nv);
+  EXPECT_EQ(gravity, VectorX(rnea(model, data, q, zero, zero)));
+  // quadratic in v, and exactly zero without it
+  const VectorX doubled = coriolisForces(model, data, q, 2.0 * v);
+  EXPECT_LT((doubled - 4.0 * coriolis).norm(), 1e-12 * std::max(1.0, doubled.norm()));
+  EXPECT_EQ(VectorX(coriolisForces(model, data, q, zero)), zero);
+}
+
+TEST_P(RneaTest, EnergiesAtAStateDoNotReadAnEarlierCallsKinematics) {
+  const Model& model = *model_;
+  Data data(model);
+  std::mt19937 rng(31);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX v = test::randomVector(model.nv, rng);
+  const MatrixX M = massAt(model, data, q);
+  // kinematics of another state left in data, as crba(q) alone would leave them
+  forwardKinematics(model, data, test::randomConfiguration(model, rng),
+                    test::randomVector(model.nv, rng));
+  EXPECT_NEAR(kineticEnergy(model, data, q, v), 0.5 * v.dot(M * v), 1e-12 * v.squaredNorm());
+  const double potential = potentialEnergy(model, data, q);
+  const Vector3 com = centerOfMass(model, data, q);
+  double mass = 0.0;
+  for (const Body& b : model.bodies) mass += b.inertia.mass;
+  EXPECT_NEAR(potential, -mass * model.gravity.dot(com),
+              1e-12 * std::max(1.0, std::abs(potential)));
+}
+
 INSTANTIATE_TEST_SUITE_P(AllModels, RneaTest, ::testing::Range(0, test::modelCount()),
                          test::modelName);
 

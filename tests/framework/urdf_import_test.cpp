@@ -246,5 +246,31 @@ TEST(UrdfImport, StringSourceIsNamedInErrors) {
   }
 }
 
+// urdfdom keeps a link's child joints in a map by name: children come in the order of their
+// joints' names, not of the file (docs/conventions.md), and every entry of v has a name.
+TEST(UrdfImport, ChildrenComeInTheOrderOfTheirJointNames) {
+  const char* xml = R"(<robot name="r">
+    <link name="base"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+    <link name="first"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+    <link name="second"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+    <joint name="z_joint" type="continuous"><parent link="base"/><child link="first"/><axis xyz="0 0 1"/></joint>
+    <joint name="a_joint" type="continuous"><parent link="base"/><child link="second"/><axis xyz="0 0 1"/></joint>
+  </robot>)";
+  ModelBuilder builder("order.urdf");
+  UrdfOptions options;
+  options.floating_base = true;
+  addUrdfString(builder, xml, "order.urdf", options);
+  const Model model = builder.build();
+  ASSERT_EQ(model.bodies.size(), 3u);
+  EXPECT_EQ(model.bodies[1].name, "second");
+  EXPECT_EQ(model.bodies[2].name, "first");
+  const std::vector<std::string> expected = {"root_joint:vx", "root_joint:vy", "root_joint:vz",
+                                             "root_joint:wx", "root_joint:wy", "root_joint:wz",
+                                             "a_joint",       "z_joint"};
+  EXPECT_EQ(model.dofNames(), expected);
+  EXPECT_EQ(model.dofIndex("z_joint"), 7);
+  EXPECT_THROW(model.dofIndex("y_joint"), InputError);
+}
+
 }  // namespace
 }  // namespace sweep

@@ -1,13 +1,19 @@
-# Installs the build tree into a scratch prefix, then configures, builds and runs a consumer
-# project that uses find_package(Sweep).
+# Configures, builds and runs a consumer project that uses find_package(Sweep): with
+# -DFROM_BUILD_TREE=ON on the build tree itself (Sweep_DIR = the build folder), else after
+# installing the build tree into a scratch prefix.
 file(REMOVE_RECURSE "${WORK}")
-execute_process(COMMAND ${CMAKE_COMMAND} --install "${BUILD}" --prefix "${WORK}/prefix"
-                RESULT_VARIABLE rc OUTPUT_QUIET)
-if(rc)
-  message(FATAL_ERROR "install failed")
+if(FROM_BUILD_TREE)
+  set(where -DSweep_DIR=${BUILD})
+else()
+  execute_process(COMMAND ${CMAKE_COMMAND} --install "${BUILD}" --prefix "${WORK}/prefix"
+                  RESULT_VARIABLE rc OUTPUT_QUIET)
+  if(rc)
+    message(FATAL_ERROR "install failed")
+  endif()
+  set(where -DCMAKE_PREFIX_PATH=${WORK}/prefix)
 endif()
-execute_process(COMMAND ${CMAKE_COMMAND} -S "${SOURCE}" -B "${WORK}/build"
-                        -DCMAKE_PREFIX_PATH=${WORK}/prefix RESULT_VARIABLE rc)
+execute_process(COMMAND ${CMAKE_COMMAND} -S "${SOURCE}" -B "${WORK}/build" ${where}
+                RESULT_VARIABLE rc)
 if(rc)
   message(FATAL_ERROR "consumer configure failed")
 endif()

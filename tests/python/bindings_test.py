@@ -156,6 +156,21 @@ class Urdf(unittest.TestCase):
                                    atol=1e-12)
         np.testing.assert_array_equal(m.coriolis_forces(q, 0 * v), np.zeros(m.nv))
 
+    def test_floating_base_velocity_conventions(self):
+        m = sweep.Model.from_urdf(ARM, floating_base=True)
+        self.assertEqual(m.dof_names[:6], ["root_joint:vx", "root_joint:vy", "root_joint:vz",
+                                           "root_joint:wx", "root_joint:wy", "root_joint:wz"])
+        q = m.neutral_configuration()
+        angle = 0.7  # the root turned about z: its quaternion (x, y, z, w) in q[3:7]
+        q[3:7] = [0.0, 0.0, np.sin(angle / 2), np.cos(angle / 2)]
+        v = np.arange(1.0, m.nv + 1.0)
+        body = m.velocity_to_body_frame(q, v)
+        c, s = np.cos(angle), np.sin(angle)
+        np.testing.assert_allclose(body[:3], [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]],
+                                   atol=1e-14)
+        np.testing.assert_array_equal(body[3:], v[3:])
+        np.testing.assert_allclose(m.velocity_from_body_frame(q, body), v, atol=1e-14)
+
     def test_bad_sizes_are_input_errors(self):
         with self.assertRaises(sweep.InputError):
             self.model.mass_matrix(np.zeros(self.model.nq + 1))

@@ -26,6 +26,18 @@ class Examples(unittest.TestCase):
                   & (image[:, :, 2] < 0.2))
         self.assertGreater(int(orange.sum()), 2000)
 
+    def test_arm_dynamics(self):
+        png = os.path.join(scratch_dir(self, "sweep_examples_"), "arm.png")
+        result = subprocess.run([sys.executable,
+                                 os.path.join(SOURCE, "examples/python/arm_dynamics.py"), png,
+                                 "0.5"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertTrue(os.path.getsize(png) > 10000)
+        # semi-implicit Euler at h = 1e-4 keeps the energy to a small fraction over 0.5 s
+        drift = float(result.stdout.split("end ")[1].split(" J")[0])
+        total = float(result.stdout.split("of ")[1].split(" J")[0])
+        self.assertLess(abs(drift), 1e-2 * max(1.0, abs(total)))
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)
