@@ -28,7 +28,7 @@
 //
 // Stop: the natural-map residual F_b = x_b - P_b(x_b - g_b), relative to
 // sqrt(sum_b max(|x_b|^2, |g_b|^2) + scale2_b), below the tolerance: in variables scaled to a
-// unit diagonal this is Gauss-Seidel's residual (docs/schemes.md, "Convex solvers").
+// unit diagonal this is Gauss-Seidel's residual (docs/schemes.md, "Convex stage solvers").
 // No allocation in the iterations: the workspace is sized by the caller's first call per solve.
 #include <cstdint>
 #include <vector>

@@ -171,8 +171,8 @@ Vector2 rollingTarget(const ContactProblem& p, int c, double normal_impulse, con
 // Relaxation moves an impulse the fraction omega of the way to its local solution, except when
 // that solution is zero: a row that opens, opens at once. Relaxed towards zero, its impulse
 // would only decay and never become the exact zero that the open-row shortcut of the packed
-// updates tests for; with omega = 0.9 the powder pass then took fewer sweeps but more time
-// (docs/powder_bed.md, "Under-relaxation, and rows that open at once").
+// updates tests for, and cost time (docs/powder_bed.md, "Under-relaxation, and rows that open
+// at once").
 template <class Impulse>
 [[gnu::always_inline]] inline Impulse relaxedImpulse(const Impulse& solution,
                                                      const Impulse& current, double omega) {

@@ -42,7 +42,8 @@ struct SchemeSettings {
   double h = 1e-4;
   NormalLaw normal_law = NormalLaw::Vel;
   NlgsSettings coulomb{3000};  // scheme A
-  // scheme B's stages, solved as convex programs by default (docs/schemes.md, "Convex solvers")
+  // scheme B's stages, solved as convex programs by default (docs/schemes.md, "Convex stage
+  // solvers")
   NlgsSettings normal_stage{1500, StageSolver::Auto};    // 5a
   NlgsSettings friction_stage{1500, StageSolver::Auto};  // 5b
   FrictionStageOptions friction;                         // scheme B: tangents, threshold

@@ -258,8 +258,8 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
   }
   if (!seen_t)
     throw InputError(path +
-                     ": no 't' row (the time of the state; written by sweep 0.1.0 runs "
-                     "since 2026-11-22: add a row 't,0,TIME' after the header)");
+                     ": no 't' row (the time of the state, which runs write first; add a row "
+                     "'t,0,TIME' after the header)");
   for (int i = 0; i < model.nq; ++i)
     if (!seen_q[i])
       throw InputError(path + ": q[" + std::to_string(i) + "] is missing (the scene has nq = " +

@@ -1,7 +1,7 @@
 #pragma once
 // Scene files: YAML describing a scene (bodies, generators, URDF models, materials), the
 // scheme and its settings, the time span and the outputs. The format is documented in
-// docs/scene_format.md; every rejection names the file, the field path and the value.
+// docs/cli.md; every rejection names the file, the field path and the value.
 #include <optional>
 #include <string>
 #include <vector>

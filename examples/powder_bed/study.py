@@ -71,8 +71,8 @@ VARIANTS = {
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9"]),
-    # and with the balls' margin from their relative speeds (detection.margin_rule), on the
-    # body-form rows (scheme A's rows before compact rows became its default, 2026-11-25)
+    # and with the balls' margin from their relative speeds (detection.margin_rule), on
+    # body-form rows rather than the compact sphere rows of scheme A's default
     "fast5-rel": ("the same, relative ball margins, body-form rows",
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
@@ -118,8 +118,8 @@ VARIANTS = {
     # Jean's quasi-shock law: every candidate in the solve, the gap closed at most
     "iqs": ("Jean-Moreau with the IQS law", ["scheme.normal_law=iqs"]),
     "rough-iqs": ("rough plate, IQS law", ["generators[0].plate=rough", "scheme.normal_law=iqs"]),
-    # Jean-Moreau's sweeps with and without the NNCG momentum (docs/powder_bed.md); the
-    # examples use it since 2026-11-23, the studies before that date ran plain sweeps
+    # Jean-Moreau's sweeps with and without the NNCG momentum (docs/powder_bed.md, "NNCG"; the
+    # examples use it)
     "nncg": ("Jean-Moreau, NNCG sweeps", ["scheme.coulomb.acceleration=nncg"]),
     "plain": ("Jean-Moreau, plain sweeps", ["scheme.coulomb.acceleration=none"]),
     "rough-nncg": ("rough plate, NNCG sweeps",
