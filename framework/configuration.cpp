@@ -1,5 +1,8 @@
 #include "framework/configuration.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace sweep {
 
 namespace {
@@ -36,6 +39,20 @@ void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX&
         (quaternionAt(q_out, iq) * exponential(dv.segment<3>(iv + 3))).normalized();
     storeQuaternion(rotated, q_out, iq);
   }
+  for (const Component& c : model.components) {
+    if (c.system < 0) continue;
+    const EquationSystem& system = model.systems[c.system];
+    if (!system.integrate) {
+      q_out.segment(c.q_index, c.nq) += dv.segment(c.v_index, c.nv);
+      continue;
+    }
+    const VectorX moved = system.integrate(q.segment(c.q_index, c.nq), dv.segment(c.v_index, c.nv));
+    if (moved.size() != c.nq)
+      throw std::runtime_error("system '" + system.name + "': integrate returned " +
+                               std::to_string(moved.size()) +
+                               " entries, not nq = " + std::to_string(c.nq));
+    q_out.segment(c.q_index, c.nq) = moved;
+  }
 }
 
 VectorX integrate(const Model& model, const VectorX& q, const VectorX& dv) {
@@ -65,6 +82,13 @@ VectorX difference(const Model& model, const VectorX& q0, const VectorX& q1) {
     }
     dv.segment<3>(iv + 3) = angle * axis;
   }
+  for (const Component& c : model.components) {
+    if (c.system < 0) continue;
+    if (model.systems[c.system].integrate)
+      throw std::logic_error("difference: system '" + model.systems[c.system].name +
+                             "' has its own integrate, and no inverse of it");
+    dv.segment(c.v_index, c.nv) = q1.segment(c.q_index, c.nq) - q0.segment(c.q_index, c.nq);
+  }
   return dv;
 }
 
@@ -80,6 +104,13 @@ void configurationRate(const Model& model, const VectorX& q, const VectorX& v, V
     const Vector3 w = v.segment<3>(iv + 3);
     const Quaternion rate = quaternionAt(q, iq) * Quaternion(0.0, w.x(), w.y(), w.z());
     qdot.segment<4>(iq + 3) = 0.5 * rate.coeffs();  // coeffs() is (x, y, z, w)
+  }
+  for (const Component& c : model.components) {
+    if (c.system < 0) continue;
+    if (model.systems[c.system].integrate)
+      throw std::logic_error("configurationRate: system '" + model.systems[c.system].name +
+                             "' has its own integrate");
+    qdot.segment(c.q_index, c.nq) = v.segment(c.v_index, c.nv);
   }
 }
 

@@ -2,13 +2,32 @@
 
 #include "framework/kinematics.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace sweep {
+
+MatrixX systemMass(const Model& model, int component, const VectorX& q) {
+  const Component& comp = model.components[component];
+  const EquationSystem& system = model.systems[comp.system];
+  MatrixX M = system.mass(q.segment(comp.q_index, comp.nq));
+  if (M.rows() != comp.nv || M.cols() != comp.nv || !M.allFinite())
+    throw std::runtime_error("system '" + system.name + "': its mass matrix must be a finite " +
+                             std::to_string(comp.nv) + " x " + std::to_string(comp.nv) +
+                             " matrix, got " + std::to_string(M.rows()) + " x " +
+                             std::to_string(M.cols()));
+  return M;
+}
 
 void computeMassBlocks(const Model& model, Data& data, bool include_constant) {
   for (size_t c = 0; c < model.components.size(); ++c) {
     const Component& comp = model.components[c];
     if (comp.constant_mass && !include_constant) continue;
     MatrixX& block = data.mass_blocks[c];
+    if (comp.system >= 0) {
+      block = systemMass(model, c, data.q);
+      continue;
+    }
 
     // backward pass: composite inertias, each in its own body frame
     for (int i = comp.first_body; i < comp.end_body; ++i)

@@ -11,6 +11,9 @@ void crba(const Model& model, Data& data, const VectorX& q);
 
 // Mass blocks from the current data.parent_pose / data.motion_subspace (forwardKinematics).
 void computeMassBlocks(const Model& model, Data& data, bool include_constant);
+// The mass matrix of a component that is a system by its equations, at q (the whole model's);
+// runtime_error when its function returns a matrix of another size or not finite.
+MatrixX systemMass(const Model& model, int component, const VectorX& q);
 // Convenience: forward kinematics at q, then computeMassBlocks.
 void computeMassBlocks(const Model& model, Data& data, const VectorX& q, bool include_constant);
 

@@ -35,6 +35,9 @@ struct Data {
 
   VectorX tau;  // generalized force out of rnea()
   VectorX ddq;  // generalized acceleration out of forwardDynamics()
+  // models with systems by their equations: the state of the last forwardKinematics, which
+  // their mass matrices and energies read (empty otherwise)
+  VectorX q, v;
 };
 
 }  // namespace sweep

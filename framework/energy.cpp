@@ -1,5 +1,6 @@
 #include "framework/energy.hpp"
 
+#include "framework/crba.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
 
@@ -32,6 +33,12 @@ double kineticEnergy(const Model& model, const Data& data) {
   double energy = 0.0;
   for (size_t i = 0; i < model.bodies.size(); ++i)
     energy += 0.5 * data.velocity[i].dot(model.bodies[i].inertia.apply(data.velocity[i]));
+  for (std::size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    if (comp.system < 0) continue;
+    const VectorX v = data.v.segment(comp.v_index, comp.nv);
+    energy += 0.5 * v.dot(systemMass(model, static_cast<int>(c), data.q) * v);
+  }
   return energy;
 }
 
@@ -41,6 +48,9 @@ double potentialEnergy(const Model& model, const Data& data) {
     const Inertia& inertia = model.bodies[i].inertia;
     energy -= inertia.mass * model.gravity.dot(data.world_pose[i].apply(inertia.com));
   }
+  for (const Component& comp : model.components)
+    if (comp.system >= 0 && model.systems[comp.system].potential)
+      energy += model.systems[comp.system].potential(data.q.segment(comp.q_index, comp.nq));
   return energy;
 }
 

@@ -7,6 +7,13 @@ namespace {
 // one forward pass; v == nullptr skips velocities (c_J is then evaluated at zero velocity)
 void forwardPass(const Model& model, Data& data, const VectorX& q, const VectorX* v) {
   static const double kZeroVelocity[6] = {0, 0, 0, 0, 0, 0};
+  if (!model.systems.empty()) {
+    data.q = q;
+    if (v)
+      data.v = *v;
+    else
+      data.v.setZero(model.nv);
+  }
   for (size_t i = 0; i < model.bodies.size(); ++i) {
     const Body& body = model.bodies[i];
     const Pose joint_transform = jointTransform(body.joint, q.data() + body.q_index);

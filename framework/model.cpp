@@ -107,6 +107,8 @@ std::vector<std::string> Model::dofNames() const {
       names.push_back(body.joint_name);
     }
   }
+  for (const EquationSystem& system : systems)
+    for (int k = 0; k < system.nv; ++k) names.push_back(system.name + ":" + std::to_string(k));
   return names;
 }
 
@@ -121,6 +123,9 @@ VectorX Model::neutralConfiguration() const {
   VectorX q = VectorX::Zero(nq);
   for (const Body& b : bodies)
     if (b.joint.type == JointType::Floating) q[b.q_index + 6] = 1.0;
+  for (const Component& c : components)
+    if (c.system >= 0 && systems[c.system].reference.size() == c.nq)
+      q.segment(c.q_index, c.nq) = systems[c.system].reference;
   return q;
 }
 
@@ -174,6 +179,35 @@ void ModelBuilder::addDrivenBody(const DrivenBody& body) {
   if (!body.pose || !body.twist)
     throw InputError(source_ + ": driven body '" + body.name + "' needs a pose and a twist");
   driven_.push_back(body);
+}
+
+void ModelBuilder::addSystem(const EquationSystem& system) {
+  const std::string who = source_ + ": system '" + system.name + "'";
+  if (system.nq < 1 || system.nv < 1 || system.nq > 100000 || system.nv > 100000)
+    throw InputError(who + ": nq and nv must be in [1, 10^5], got " + std::to_string(system.nq) +
+                     " and " + std::to_string(system.nv));
+  if (!system.mass) throw InputError(who + ": needs a mass matrix function");
+  if (!system.integrate && system.nq != system.nv)
+    throw InputError(who + ": nq = " + std::to_string(system.nq) + " differs from nv = " +
+                     std::to_string(system.nv) + ", so it needs its integrate function");
+  if (system.reference.size() != 0 &&
+      (system.reference.size() != system.nq || !system.reference.allFinite()))
+    throw InputError(who + ": its reference configuration must have nq finite entries");
+  systems_.push_back(system);
+}
+
+void ModelBuilder::addConstraint(const ConstraintFunction& constraint) {
+  const std::string who = source_ + ": constraint '" + constraint.name + "'";
+  if (!constraint.gap || !constraint.normal)
+    throw InputError(who + ": needs a gap function and a normal function");
+  if (!(constraint.friction >= 0.0 && std::isfinite(constraint.friction)))
+    throw InputError(who + ": friction must be >= 0, got " + formatValue(constraint.friction));
+  if (!(constraint.restitution >= 0.0 && constraint.restitution <= 1.0))
+    throw InputError(who + ": restitution must be in [0, 1], got " +
+                     formatValue(constraint.restitution));
+  if (constraint.friction > 0.0 && !constraint.tangent)
+    throw InputError(who + ": friction needs a tangent function");
+  constraints_.push_back(constraint);
 }
 
 void ModelBuilder::setGravity(const Vector3& gravity) {
@@ -234,15 +268,12 @@ Model ModelBuilder::build() const {
     b.component = static_cast<int>(model.components.size()) - 1;
     model.bodies.push_back(b);
   }
-  model.nq = iq;
-  model.nv = iv;
-  for (size_t c = 0; c < model.components.size(); ++c) {
+  const std::size_t body_components = model.components.size();
+  for (size_t c = 0; c < body_components; ++c) {
     Component& comp = model.components[c];
-    comp.end_body = c + 1 < model.components.size() ? model.components[c + 1].first_body : n;
-    comp.nq =
-        (c + 1 < model.components.size() ? model.components[c + 1].q_index : iq) - comp.q_index;
-    comp.nv =
-        (c + 1 < model.components.size() ? model.components[c + 1].v_index : iv) - comp.v_index;
+    comp.end_body = c + 1 < body_components ? model.components[c + 1].first_body : n;
+    comp.nq = (c + 1 < body_components ? model.components[c + 1].q_index : iq) - comp.q_index;
+    comp.nv = (c + 1 < body_components ? model.components[c + 1].v_index : iv) - comp.v_index;
     const Body& root = model.bodies[comp.first_body];
     const bool single = comp.end_body == comp.first_body + 1;
     const bool com_at_origin = root.inertia.com.norm() == 0.0;
@@ -259,6 +290,24 @@ Model ModelBuilder::build() const {
         break;
     }
   }
+  // systems by their equations: components without bodies, after the trees
+  for (const EquationSystem& system : systems_) {
+    Component comp;
+    comp.first_body = comp.end_body = n;
+    comp.q_index = iq;
+    comp.v_index = iv;
+    comp.nq = system.nq;
+    comp.nv = system.nv;
+    comp.constant_mass = system.constant_mass;
+    comp.system = static_cast<int>(model.systems.size());
+    model.components.push_back(comp);
+    model.systems.push_back(system);
+    iq += system.nq;
+    iv += system.nv;
+  }
+  model.nq = iq;
+  model.nv = iv;
+  model.constraints = constraints_;
   for (JointLimit l : limits_) {
     l.body = new_index[l.body];
     l.q_index = model.bodies[l.body].q_index;
@@ -281,9 +330,12 @@ Model ModelBuilder::build() const {
     if (!largest || comp.nv > largest->nv) largest = &comp;
   }
   if (largest)
-    requireMemory(dense_bytes, source_ + ": the mass matrix of the tree rooted at body '" +
-                                   model.bodies[largest->first_body].name + "' (" +
-                                   std::to_string(largest->nv) + " degrees of freedom)");
+    requireMemory(dense_bytes,
+                  source_ + ": the mass matrix of " +
+                      (largest->system >= 0 ? "system '" + model.systems[largest->system].name + "'"
+                                            : "the tree rooted at body '" +
+                                                  model.bodies[largest->first_body].name + "'") +
+                      " (" + std::to_string(largest->nv) + " degrees of freedom)");
 
   // every degree of freedom must move some inertia, or M is singular in every configuration
   // Data's constructor has just built every block at the neutral configuration
@@ -296,9 +348,13 @@ Model ModelBuilder::build() const {
     if (llt.info() != Eigen::Success ||
         llt.matrixLLT().diagonal().array().square().minCoeff() < 1e-12 * max_diagonal) {
       std::ostringstream msg;
-      msg << source_ << ": mass matrix of the tree rooted at body '"
-          << model.bodies[comp.first_body].name
-          << "' is singular: some joint moves no mass or inertia";
+      if (comp.system >= 0)
+        msg << source_ << ": system '" << model.systems[comp.system].name
+            << "': its mass matrix at the reference configuration is not positive definite";
+      else
+        msg << source_ << ": mass matrix of the tree rooted at body '"
+            << model.bodies[comp.first_body].name
+            << "' is singular: some joint moves no mass or inertia";
       throw InputError(msg.str());
     }
   }

@@ -41,6 +41,36 @@ struct Component {
   int nv = 0;
   // a single body whose mass block does not depend on q: computed and inverted once
   bool constant_mass = false;
+  int system = -1;  // >= 0: Model::systems[system], a component without bodies
+};
+
+// A system given by its equations rather than by bodies and joints (docs/python.md, "Systems
+// by their equations"): nq coordinates and nv velocities of its own, a component of the model
+// beside the body trees, with
+//   M(q) dv/dt = f(t, q, v) + (constraint impulses),   q (+) dv by `integrate`.
+struct EquationSystem {
+  std::string name;
+  int nq = 0, nv = 0;
+  std::function<MatrixX(const VectorX& q)> mass;  // nv x nv, symmetric positive definite
+  bool constant_mass = false;                     // M(q) does not depend on q: built once
+  // generalized forces on its velocities (gravity, springs, drives); null: none
+  std::function<VectorX(double t, const VectorX& q, const VectorX& v)> forces;
+  // q (+) dv where the coordinates are not a vector space; null: q + dv (then nq == nv)
+  std::function<VectorX(const VectorX& q, const VectorX& dv)> integrate;
+  std::function<double(const VectorX& q)> potential;  // its potential energy, for diagnostics
+  VectorX reference;  // the neutral configuration (empty: zeros), where M must be invertible
+};
+
+// A unilateral constraint given by functions of the whole model's q (nq entries): the gap
+// g(q) >= 0, its normal W_N(q) with dg/dt = W_N^T v (nv entries), and for friction one tangent
+// direction W_T(q) (two in a 3D problem), with the Coulomb coefficient and Newton's restitution.
+// It enters the same index sets and solves as geometric contacts and joint limits.
+struct ConstraintFunction {
+  std::string name;
+  std::function<double(const VectorX& q)> gap;
+  std::function<VectorX(const VectorX& q)> normal;
+  std::function<VectorX(const VectorX&q)> tangent, tangent2;  // null: none
+  double friction = 0.0, restitution = 0.0;
 };
 
 // A one-sided bound on a 1-dof joint, kept as a unilateral constraint for the contact solve:
@@ -102,6 +132,8 @@ struct Model {
   std::vector<JointLimit> limits;
   std::vector<CollisionGeometry> collisions;
   std::vector<DrivenBody> driven_bodies;
+  std::vector<EquationSystem> systems;  // their components follow the body trees'
+  std::vector<ConstraintFunction> constraints;
   Vector3 gravity = Vector3(0, 0, -9.81);
   int nq = 0;
   int nv = 0;
@@ -128,6 +160,10 @@ class ModelBuilder {
   void addCollision(const CollisionGeometry& geometry);
   void addDrivenBody(const DrivenBody& body);
   void setGravity(const Vector3& gravity);
+  // A system by its equations (its coordinates and velocities come after every body's), and a
+  // constraint by functions; InputError naming the missing or inconsistent part.
+  void addSystem(const EquationSystem& system);
+  void addConstraint(const ConstraintFunction& constraint);
   int bodyCount() const { return static_cast<int>(bodies_.size()); }
 
   // Orders bodies component by component (depth-first), assigns coordinate indices and checks
@@ -140,6 +176,8 @@ class ModelBuilder {
   std::vector<JointLimit> limits_;  // body indices of this builder
   std::vector<CollisionGeometry> collisions_;
   std::vector<DrivenBody> driven_;
+  std::vector<EquationSystem> systems_;
+  std::vector<ConstraintFunction> constraints_;
   Vector3 gravity_ = Vector3(0, 0, -9.81);
 };
 

@@ -37,6 +37,17 @@ const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, cons
     if (body.parent >= 0)
       data.force[body.parent] += data.parent_pose[i].forceToParent(data.force[i]);
   }
+  // systems by their equations: no bias of their own (their forces are applied forces), and
+  // M(q) a for inverse dynamics
+  for (std::size_t c = 0; c < model.components.size(); ++c) {
+    const Component& comp = model.components[c];
+    if (comp.system < 0) continue;
+    if (a)
+      data.tau.segment(comp.v_index, comp.nv) =
+          systemMass(model, static_cast<int>(c), data.q) * a->segment(comp.v_index, comp.nv);
+    else
+      data.tau.segment(comp.v_index, comp.nv).setZero();
+  }
   return data.tau;
 }
 

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
+#include <stdexcept>
+#include <string>
 
 #include "contact/detection.hpp"
 
@@ -652,6 +655,40 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     p.h.emplace_back(limit.side, 0.0, 0.0);
     if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
     finishRow(Vector3::Zero(), gap, 0.0, 0.0, Vector2::Zero(), 0.0);
+  }
+
+  // constraints by functions (Model::constraints): gap, normal and tangents at q_m
+  const int limit_count = static_cast<int>(model.limits.size());
+  for (int k = 0; k < static_cast<int>(model.constraints.size()); ++k) {
+    const ConstraintFunction& f = model.constraints[k];
+    const double gap = f.gap(q_m);
+    const auto direction = [&](const std::function<VectorX(const VectorX&)>& of, const char* what) {
+      VectorX w = of ? of(q_m) : VectorX::Zero(model.nv);
+      if (w.size() != model.nv || !w.allFinite() || !std::isfinite(gap))
+        throw std::runtime_error("constraint '" + f.name + "': its " + what +
+                                 " must be finite with nv = " + std::to_string(model.nv) +
+                                 " entries (and its gap finite)");
+      return w;
+    };
+    const VectorX normal = direction(f.normal, "normal");
+    double rate = std::abs(normal.dot(v_start));
+    if (v_free) rate = std::max(rate, std::abs(normal.dot(*v_free)));
+    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * rate;
+    if (gap > reach) continue;
+    if (normal.isZero(0.0))
+      throw std::runtime_error("constraint '" + f.name + "': its normal is zero at the gap " +
+                               std::to_string(gap) + ": the constraint moves nothing");
+    const VectorX tangent = direction(f.tangent, "tangent");
+    const VectorX tangent2 =
+        p.dimension == 3 ? direction(f.tangent2, "second tangent") : VectorX::Zero(model.nv);
+    p.contact.push_back(-1 - (limit_count + k));
+    for (int j = 0; j < model.nv; ++j) {
+      if (normal[j] == 0.0 && tangent[j] == 0.0 && tangent2[j] == 0.0) continue;
+      p.dof.push_back(j);
+      p.h.emplace_back(normal[j], tangent[j], tangent2[j]);
+      if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
+    }
+    finishRow(Vector3::Zero(), gap, f.friction, f.restitution, Vector2::Zero(), 0.0);
   }
 
   // islands numbered in order of their first row: deterministic

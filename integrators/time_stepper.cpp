@@ -70,6 +70,12 @@ TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
       v_free_(v_),
       tau_(VectorX::Zero(model.nv)) {
   settings_.validate();
+  for (const ConstraintFunction& f : model_.constraints) {
+    if (cmodel_.dimension == 3 && f.friction > 0.0 && !f.tangent2)
+      throw InputError("constraint '" + f.name +
+                       "': friction in a 3D problem needs a second tangent function");
+    constraint_friction_ = constraint_friction_ || f.friction > 0.0;
+  }
   problem_.compact_spheres = settings_.compactSphereRows();
   problem_.pack_body_form = problem_.pack_rows = settings_.packed_rows;
 }
@@ -90,7 +96,10 @@ void TimeStepper::reset(double t, const VectorX& q, const VectorX& v) {
   rolling_.clear();
   previous_rolling_.clear();
   limit_impulse_.assign(model_.limits.size(), 0.0);
-  limit_staged_.assign(model_.limits.size(), StagedImpulse{});
+  constraint_impulse_.assign(model_.constraints.size(), Vector3::Zero());
+  // rows of the model itself, joint limits then constraints by functions, in the index space
+  // of ContactProblem::contact (-1 - m)
+  limit_staged_.assign(model_.limits.size() + model_.constraints.size(), StagedImpulse{});
   contact_dv_.setZero(model_.nv);
   cdata_ = ContactData(model_, cmodel_);
 }
@@ -108,6 +117,7 @@ const StepStats& TimeStepper::step() {
   if (cmodel_.settings.verify_margin && settings_.normal_law != NormalLaw::Vel) {
     contact_dv_start_ = contact_dv_;
     limit_impulse_start_ = limit_impulse_;
+    constraint_impulse_start_ = constraint_impulse_;
     limit_staged_start_ = limit_staged_;
   }
   assemble();  // 3
@@ -191,6 +201,7 @@ void TimeStepper::redoStep(const DetectionMargins& margins) {
   if (cmodel_.rolling) std::swap(rolling_, previous_rolling_);
   contact_dv_ = contact_dv_start_;
   limit_impulse_ = limit_impulse_start_;
+  constraint_impulse_ = constraint_impulse_start_;
   limit_staged_ = limit_staged_start_;
   // the step's cost counts every solve; its other figures are those of the last
   const StepStats before = stats_;
@@ -207,11 +218,24 @@ void TimeStepper::redoStep(const DetectionMargins& margins) {
   stats_.iterations_stage2 += before.iterations_stage2;
 }
 
+void TimeStepper::addSystemForces(double t, const VectorX& q, const VectorX& v) {
+  for (const Component& c : model_.components) {
+    if (c.system < 0 || !model_.systems[c.system].forces) continue;
+    const EquationSystem& system = model_.systems[c.system];
+    const VectorX f = system.forces(t, q.segment(c.q_index, c.nq), v.segment(c.v_index, c.nv));
+    if (f.size() != c.nv || !f.allFinite())
+      throw std::runtime_error("system '" + system.name + "': its forces must be " +
+                               std::to_string(c.nv) + " finite values at t = " + std::to_string(t));
+    tau_.segment(c.v_index, c.nv) += f;
+  }
+}
+
 void TimeStepper::freeVelocity() {
   const auto start = Clock::now();
   const double t_m = t_ + 0.5 * settings_.h;
   tau_.setZero();
   if (forces_) forces_(t_m, q_m_, v_, tau_);
+  addSystemForces(t_m, q_m_, v_);
   // detect() left the kinematics of data at (q_m, v); constant mass blocks (particles) are
   // skipped, the others rebuilt and factored
   v_free_ = v_ + settings_.h * forwardDynamicsFromKinematics(model_, data_, v_, tau_);
@@ -381,7 +405,11 @@ void TimeStepper::assembleProblem() {
   for (int c = 0; c < n; ++c) {
     const int id = problem_.contact[c];
     if (id < 0) {
-      P_[c].x() = limit_impulse_[-1 - id];
+      const int m = -1 - id, limits = static_cast<int>(model_.limits.size());
+      if (m < limits)
+        P_[c].x() = limit_impulse_[m];
+      else
+        P_[c] = constraint_impulse_[m - limits];
       continue;
     }
     if (solved_[id]) {
@@ -465,12 +493,17 @@ int TimeStepper::admitViolators() {
 }
 
 void TimeStepper::keepImpulses() {
-  // a joint limit out of this solve carries nothing (limits are never deferred)
+  // a joint limit or constraint out of this solve carries nothing (they are never deferred)
   std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
+  std::fill(constraint_impulse_.begin(), constraint_impulse_.end(), Vector3::Zero());
   for (int c = 0; c < problem_.size(); ++c) {
     const int id = problem_.contact[c];
     if (id < 0) {
-      limit_impulse_[-1 - id] = P_[c].x();
+      const int m = -1 - id, limits = static_cast<int>(model_.limits.size());
+      if (m < limits)
+        limit_impulse_[m] = P_[c].x();
+      else
+        constraint_impulse_[m - limits] = P_[c];
       continue;
     }
     impulse_[id] = P_[c];
@@ -540,8 +573,8 @@ void TimeStepper::solveCatchingUp() {
                    normal.status == SolverStatus::MaxIterations;
   stats_.iterations_stage2 = 0;
   stats_.kinetic_stage1 = metricKinetic(v);
-  // 5b: friction with frozen thresholds, skipped when no contact can have friction
-  if (!cmodel_.frictionless) {
+  // 5b: friction with frozen thresholds, skipped when no contact or constraint can have it
+  if (!cmodel_.frictionless || constraint_friction_) {
     const int rounds = 1 + settings_.friction.threshold_updates;
     if (rounds > 1) v_stage1_ = v;
     for (int round = 0; round < rounds; ++round) {
@@ -635,12 +668,14 @@ void TimeStepper::diagnose() {
   evaluateContactGaps(model_, data_, cmodel_, cdata_, t_, end_gap_);
   stats_.penetration_max = stats_.penetration_sum = 0.0;
   stats_.penetration_count = 0;
-  for (double g : end_gap_) {
-    if (!(g < 0.0)) continue;
+  const auto penetration = [&](double g) {
+    if (!(g < 0.0)) return;
     stats_.penetration_max = std::max(stats_.penetration_max, -g);
     stats_.penetration_sum += -g;
     ++stats_.penetration_count;
-  }
+  };
+  for (double g : end_gap_) penetration(g);
+  for (const ConstraintFunction& f : model_.constraints) penetration(f.gap(q_));
 }
 
 }  // namespace sweep

@@ -141,6 +141,8 @@ class TimeStepper {
   const std::vector<Vector2>& rollingImpulses() const { return rolling_; }
   // impulse of each joint limit (Model::limits) in the last step
   const std::vector<double>& limitImpulses() const { return limit_impulse_; }
+  // impulse (normal, tangents) of each constraint by functions (Model::constraints)
+  const std::vector<Vector3>& constraintImpulses() const { return constraint_impulse_; }
   double energy();  // kinetic + potential at the current state
 
  private:
@@ -149,15 +151,16 @@ class TimeStepper {
   // detection.verify_margin: the margins `at_least` a detection needs for the end velocities
   // of the solve just done; zero where the step's margins cover them
   DetectionMargins marginNeeded();
-  void redoStep(const DetectionMargins& margins);  // 2 to 5 again, from q_m
-  void freeVelocity();                             // 4
-  void assemble();                                 // 3: Jacobian, then the problem
-  void assembleJacobian();                         // 3: rows of the contacts not unassembled
-  void assembleProblem();  // 3: the problem of the contacts not deferred, warm-started
-  void solve();            // 5, with candidate screening when set
-  void solveMoreauJean();  // 5, scheme A
-  void solveCatchingUp();  // 5, scheme B
-  void keepImpulses();     // the solve's impulses by contact: warm start of the next solve
+  void redoStep(const DetectionMargins& margins);                      // 2 to 5 again, from q_m
+  void freeVelocity();                                                 // 4
+  void addSystemForces(double t, const VectorX& q, const VectorX& v);  // into tau_
+  void assemble();          // 3: Jacobian, then the problem
+  void assembleJacobian();  // 3: rows of the contacts not unassembled
+  void assembleProblem();   // 3: the problem of the contacts not deferred, warm-started
+  void solve();             // 5, with candidate screening when set
+  void solveMoreauJean();   // 5, scheme A
+  void solveCatchingUp();   // 5, scheme B
+  void keepImpulses();      // the solve's impulses by contact: warm start of the next solve
   // contacts left out that break their law at the solve's velocities join (returns how many)
   int admitViolators();
   void update();  // 6
@@ -185,8 +188,9 @@ class TimeStepper {
     Vector2 tangent = Vector2::Zero();
   };
   std::vector<StagedImpulse> staged_, previous_staged_;
-  std::vector<double> limit_impulse_;  // joint limits persist: warm start by index
-  std::vector<StagedImpulse> limit_staged_;
+  std::vector<double> limit_impulse_;        // joint limits persist: warm start by index
+  std::vector<Vector3> constraint_impulse_;  // so do constraints by functions
+  std::vector<StagedImpulse> limit_staged_;  // limits, then constraints
   // warm-start value of problem row c (a contact's previous impulse, or a limit's)
   const StagedImpulse* previousStaged(int c) const;
   std::vector<Vector2> rolling_, previous_rolling_;  // aligned with contacts / previous
@@ -213,6 +217,8 @@ class TimeStepper {
   // detection.verify_margin: the warm starts a step began with, for a step done again
   VectorX contact_dv_start_;
   std::vector<double> limit_impulse_start_;
+  std::vector<Vector3> constraint_impulse_start_;
+  bool constraint_friction_ = false;  // a constraint by functions has friction: 5b runs
   std::vector<StagedImpulse> limit_staged_start_;
   VectorX v_predicted_;
   VectorX mass_times_v_;

@@ -1,0 +1,241 @@
+// Systems by their equations and constraints by functions (framework/model.hpp): the same
+// index sets and solves as bodies and contacts, for both schemes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "contact/contact_model.hpp"
+#include "framework/error.hpp"
+#include "integrators/time_stepper.hpp"
+
+namespace sweep {
+namespace {
+
+constexpr double kG = 9.81;
+
+SchemeSettings settingsFor(Scheme scheme, double h) {
+  SchemeSettings s;
+  s.scheme = scheme;
+  s.h = h;
+  s.coulomb.tolerance = s.normal_stage.tolerance = s.friction_stage.tolerance = 1e-12;
+  return s;
+}
+
+ContactModel planar() {
+  ContactModel cmodel;
+  cmodel.dimension = 2;
+  return cmodel;
+}
+
+// A point mass m in the plane, q = (x, y), on the floor y >= 0 with friction mu and
+// restitution e, under gravity.
+Model pointMassOnFloor(double m, double mu, double e) {
+  EquationSystem mass;
+  mass.name = "point";
+  mass.nq = mass.nv = 2;
+  mass.mass = [m](const VectorX&) { return MatrixX(m * MatrixX::Identity(2, 2)); };
+  mass.constant_mass = true;
+  mass.forces = [m](double, const VectorX&, const VectorX&) {
+    return VectorX(Eigen::Vector2d(0.0, -m * kG));
+  };
+  mass.potential = [m](const VectorX& q) { return m * kG * q[1]; };
+  ConstraintFunction floor;
+  floor.name = "floor";
+  floor.gap = [](const VectorX& q) { return q[1]; };
+  floor.normal = [](const VectorX&) { return VectorX(Eigen::Vector2d(0.0, 1.0)); };
+  floor.tangent = [](const VectorX&) { return VectorX(Eigen::Vector2d(1.0, 0.0)); };
+  floor.friction = mu;
+  floor.restitution = e;
+  ModelBuilder builder("point mass");
+  builder.addSystem(mass);
+  builder.addConstraint(floor);
+  return builder.build();
+}
+
+class EquationSystems : public ::testing::TestWithParam<Scheme> {};
+
+// V8, the Kane impact, as a runnable system: M = I on R^2, the constraint q_0 >= 0 with
+// W_N = (1, 0), W_T = (0.9, sqrt(0.19)), mu = 0.5, e = 1, hit at U_N = U_T = -1. Jean-Moreau
+// gains energy (+0.4959, v+ = (1, -1.02195)); the staggered scheme does not (v+ = (1, 0)):
+// the numbers of the solver-level test KaneImpact.*, here through the whole time step.
+TEST_P(EquationSystems, KaneImpactThroughTheTimeStep) {
+  EquationSystem kane;
+  kane.name = "kane";
+  kane.nq = kane.nv = 2;
+  kane.mass = [](const VectorX&) { return MatrixX(MatrixX::Identity(2, 2)); };
+  ConstraintFunction wall;
+  wall.name = "wall";
+  wall.gap = [](const VectorX& q) { return q[0]; };
+  wall.normal = [](const VectorX&) { return VectorX(Eigen::Vector2d(1.0, 0.0)); };
+  wall.tangent = [](const VectorX&) { return VectorX(Eigen::Vector2d(0.9, std::sqrt(0.19))); };
+  wall.friction = 0.5;
+  wall.restitution = 1.0;
+  ModelBuilder builder("kane");
+  builder.addSystem(kane);
+  builder.addConstraint(wall);
+  const Model model = builder.build();
+  const ContactModel cmodel = planar();
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), 1e-3));
+  const VectorX v_minus = Eigen::Vector2d(-1.0, -0.1 / std::sqrt(0.19));
+  stepper.reset(0.0, Eigen::Vector2d(0.0, 0.0), v_minus);
+  const StepStats& s = stepper.step();
+  EXPECT_EQ(s.active, 1);
+  const VectorX& v = stepper.v();
+  const double dKE = 0.5 * v.squaredNorm() - 0.5 * v_minus.squaredNorm();
+  if (GetParam() == Scheme::MoreauJean) {
+    EXPECT_NEAR(v[0], 1.0, 1e-4);
+    EXPECT_NEAR(v[1], -1.02195, 1e-4);
+    EXPECT_NEAR(dKE, 0.4959, 1e-3);
+    EXPECT_NEAR(stepper.constraintImpulses()[0].x(), 3.6364, 1e-4);
+  } else {
+    EXPECT_NEAR(v[0], 1.0, 1e-6);
+    EXPECT_NEAR(v[1], 0.0, 1e-6);
+    EXPECT_LT(dKE, 0.0);
+  }
+}
+
+// A point mass dropped on the floor with e = 0.5 rebounds at -e times its impact velocity
+// (Newton's law, VEL), loses energy, then rests: the constraint then carries m g h per step
+// and the mass stays within VEL's penetration, h times the impact speed.
+TEST_P(EquationSystems, PointMassBouncesThenRests) {
+  const double m = 2.0, h = 1e-3, e = 0.5;
+  const Model model = pointMassOnFloor(m, 0.3, e);
+  const ContactModel cmodel = planar();
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), h));
+  stepper.reset(0.0, Eigen::Vector2d(0.0, 0.2), Eigen::Vector2d(0.0, 0.0));
+  const double energy0 = stepper.energy();
+  double lowest = 1.0, impact = 0.0, rebound = 0.0;
+  for (int k = 0; k < 3000; ++k) {
+    const double before = stepper.v()[1];
+    const StepStats& s = stepper.step();
+    ASSERT_NE(s.status, SolverStatus::Failed);
+    if (impact == 0.0 && stepper.v()[1] > 0.0) {
+      impact = before;
+      rebound = stepper.v()[1];
+    }
+    lowest = std::min(lowest, stepper.q()[1]);
+  }
+  ASSERT_LT(impact, -1.9);                  // sqrt(2 g 0.2) = 1.98 m/s
+  EXPECT_NEAR(rebound, -e * impact, 1e-9);  // U_N(k+1) = -e U_N(k)
+  EXPECT_GT(lowest, h * impact);
+  EXPECT_LE(stepper.q()[1], 0.0);
+  EXPECT_NEAR(stepper.v()[1], 0.0, 1e-9);
+  EXPECT_NEAR(stepper.constraintImpulses()[0].x(), m * kG * h, 1e-9);
+  EXPECT_LT(stepper.energy(), 0.1 * energy0);
+}
+
+// Friction through the constraint's tangent: the mass pushed along the floor at 1 m/s slows at
+// mu g and stops (mu = 0.4: after 1 / (mu g) s, at 1 / (2 mu g) m).
+TEST_P(EquationSystems, PointMassSlidesToRestWithCoulombFriction) {
+  const double mu = 0.4, h = 1e-4;
+  const Model model = pointMassOnFloor(1.0, mu, 0.0);
+  const ContactModel cmodel = planar();
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), h));
+  stepper.reset(0.0, Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.0, 0.0));
+  const int half = static_cast<int>(std::round(0.5 / (mu * kG) / h));
+  for (int k = 0; k < half; ++k) stepper.step();
+  EXPECT_NEAR(stepper.v()[0], 0.5, 1e-3);
+  for (int k = 0; k < 2 * half; ++k) stepper.step();
+  EXPECT_NEAR(stepper.v()[0], 0.0, 1e-12);
+  EXPECT_NEAR(stepper.q()[0], 1.0 / (2.0 * mu * kG), 1e-3);
+}
+
+// A system beside a body tree: the body moves as it does alone (M is block diagonal and
+// nothing couples them), to the bit, while the system falls on its own.
+TEST_P(EquationSystems, MixWithBodiesWithoutChangingThem) {
+  auto pendulum = [](ModelBuilder& builder) {
+    builder.setGravity(Vector3(0, -kG, 0));
+    builder.addBody(-1, "hinge", Joint::revolute(Vector3::UnitZ()), Pose::identity(),
+                    Inertia{1.0, Vector3(0.5, 0.0, 0.0), Matrix3::Identity() * 1e-3}, "bob");
+  };
+  ModelBuilder alone_builder("pendulum");
+  pendulum(alone_builder);
+  const Model alone = alone_builder.build();
+  ModelBuilder mixed_builder("pendulum and point");
+  pendulum(mixed_builder);
+  EquationSystem point;
+  point.name = "point";
+  point.nq = point.nv = 1;
+  point.mass = [](const VectorX&) { return MatrixX(MatrixX::Constant(1, 1, 3.0)); };
+  point.forces = [](double, const VectorX&, const VectorX&) {
+    return VectorX(VectorX::Constant(1, -3.0 * kG));
+  };
+  mixed_builder.addSystem(point);
+  const Model mixed = mixed_builder.build();
+  ASSERT_EQ(mixed.nq, 2);
+  EXPECT_EQ(mixed.dofNames().back(), "point:0");
+  const ContactModel cmodel = planar();
+  TimeStepper a(alone, cmodel, settingsFor(GetParam(), 1e-3));
+  TimeStepper b(mixed, cmodel, settingsFor(GetParam(), 1e-3));
+  a.reset(0.0, VectorX::Constant(1, 0.3), VectorX::Zero(1));
+  b.reset(0.0, Eigen::Vector2d(0.3, 5.0), VectorX::Zero(2));
+  for (int k = 0; k < 500; ++k) {
+    a.step();
+    b.step();
+  }
+  EXPECT_EQ(a.q()[0], b.q()[0]);
+  EXPECT_EQ(a.v()[0], b.v()[0]);
+  EXPECT_NEAR(b.v()[1], -kG * 0.5, 1e-12);
+}
+
+INSTANTIATE_TEST_SUITE_P(BothSchemes, EquationSystems,
+                         ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
+                         [](const auto& param_info) {
+                           return param_info.param == Scheme::MoreauJean ? "MoreauJean"
+                                                                         : "CatchingUp";
+                         });
+
+TEST(EquationSystemErrors, DefinitionsAreChecked) {
+  ModelBuilder builder("bad");
+  EquationSystem s;
+  s.name = "s";
+  s.nq = 2;
+  s.nv = 1;
+  s.mass = [](const VectorX&) { return MatrixX(MatrixX::Identity(1, 1)); };
+  try {
+    builder.addSystem(s);
+    FAIL() << "nq != nv without integrate";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("system 's': nq = 2 differs from nv = 1"),
+              std::string::npos)
+        << e.what();
+  }
+  s.nq = 1;
+  s.mass = nullptr;
+  EXPECT_THROW(builder.addSystem(s), InputError);
+  ConstraintFunction c;
+  c.name = "c";
+  c.gap = [](const VectorX& q) { return q[0]; };
+  EXPECT_THROW(builder.addConstraint(c), InputError);  // no normal
+  c.normal = [](const VectorX&) { return VectorX(VectorX::Ones(1)); };
+  c.friction = 0.5;
+  EXPECT_THROW(builder.addConstraint(c), InputError);  // friction without a tangent
+
+  // a singular mass matrix at the reference configuration
+  ModelBuilder singular("singular");
+  s.mass = [](const VectorX&) { return MatrixX(MatrixX::Zero(1, 1)); };
+  singular.addSystem(s);
+  EXPECT_THROW(singular.build(), InputError);
+
+  // a mass function of the wrong size is caught when it is called, naming the system
+  ModelBuilder sized("sized");
+  s.mass = [](const VectorX& q) {
+    return q[0] > 0.5 ? MatrixX(MatrixX::Identity(2, 2)) : MatrixX(MatrixX::Identity(1, 1));
+  };
+  sized.addSystem(s);
+  const Model model = sized.build();
+  const ContactModel cmodel = planar();  // the stepper keeps a reference
+  TimeStepper stepper(model, cmodel, settingsFor(Scheme::MoreauJean, 1e-3));
+  stepper.reset(0.0, VectorX::Constant(1, 1.0), VectorX::Zero(1));
+  try {
+    stepper.step();
+    FAIL() << "a 2 x 2 mass matrix for nv = 1";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("system 's': its mass matrix must be a finite 1 x 1"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace sweep
