@@ -162,6 +162,15 @@ class Simulation {
     stepper_->reset(0.0, scene_->q0, scene_->v0);
   }
 
+  // a model built in code: its settings, model and contact model, started at (q0, v0)
+  Simulation(SceneFile file, std::unique_ptr<Scene> scene)
+      : file_(std::move(file)),
+        scene_(std::move(scene)),
+        stepper_(std::make_unique<TimeStepper>(scene_->model, scene_->cmodel, file_.run.scheme,
+                                               scene_->forces)) {
+    stepper_->reset(0.0, scene_->q0, scene_->v0);
+  }
+
   py::dict step() {
     const StepStats* s = nullptr;
     {
@@ -299,6 +308,86 @@ class Simulation {
   ContactData cdata_{scene_->model, scene_->cmodel};
 };
 
+// Python callables as the C++ functions of a system or constraint: each call takes the GIL
+// (the stepper runs without it) and checks what comes back.
+MatrixX matrixResult(const py::object& r, const std::string& who) {
+  try {
+    if (py::isinstance<py::float_>(r) || py::isinstance<py::int_>(r))
+      return MatrixX::Constant(1, 1, r.cast<double>());
+    return r.cast<MatrixX>();
+  } catch (const py::cast_error&) {
+    throw std::runtime_error(who + " must return a matrix of numbers");
+  }
+}
+VectorX vectorResult(const py::object& r, const std::string& who) {
+  try {
+    if (py::isinstance<py::float_>(r) || py::isinstance<py::int_>(r))
+      return VectorX::Constant(1, r.cast<double>());
+    return r.cast<VectorX>();
+  } catch (const py::cast_error&) {
+    throw std::runtime_error(who + " must return a vector of numbers");
+  }
+}
+
+EquationSystem systemFromPython(const std::string& name, int nq, int nv, py::function mass,
+                                std::optional<py::function> forces,
+                                std::optional<py::function> integrate,
+                                std::optional<py::function> potential, bool constant_mass,
+                                std::optional<VectorX> reference) {
+  EquationSystem s;
+  s.name = name;
+  s.nq = nq;
+  s.nv = nv;
+  s.constant_mass = constant_mass;
+  if (reference) s.reference = *reference;
+  const std::string who = "system '" + name + "': ";
+  s.mass = [mass, who](const VectorX& q) {
+    py::gil_scoped_acquire gil;
+    return matrixResult(mass(q), who + "mass(q)");
+  };
+  if (forces)
+    s.forces = [f = *forces, who](double t, const VectorX& q, const VectorX& v) {
+      py::gil_scoped_acquire gil;
+      return vectorResult(f(t, q, v), who + "forces(t, q, v)");
+    };
+  if (integrate)
+    s.integrate = [f = *integrate, who](const VectorX& q, const VectorX& dv) {
+      py::gil_scoped_acquire gil;
+      return vectorResult(f(q, dv), who + "integrate(q, dv)");
+    };
+  if (potential)
+    s.potential = [f = *potential](const VectorX& q) {
+      py::gil_scoped_acquire gil;
+      return f(q).cast<double>();
+    };
+  return s;
+}
+
+ConstraintFunction constraintFromPython(const std::string& name, py::function gap,
+                                        py::function normal, std::optional<py::function> tangent,
+                                        std::optional<py::function> tangent2, double friction,
+                                        double restitution) {
+  ConstraintFunction c;
+  c.name = name;
+  c.friction = friction;
+  c.restitution = restitution;
+  const std::string who = "constraint '" + name + "': ";
+  c.gap = [gap](const VectorX& q) {
+    py::gil_scoped_acquire gil;
+    return gap(q).cast<double>();
+  };
+  auto direction = [who](py::function f, const char* what) {
+    return [f, who, what](const VectorX& q) {
+      py::gil_scoped_acquire gil;
+      return vectorResult(f(q), who + what);
+    };
+  };
+  c.normal = direction(normal, "normal(q)");
+  if (tangent) c.tangent = direction(*tangent, "tangent(q)");
+  if (tangent2) c.tangent2 = direction(*tangent2, "tangent2(q)");
+  return c;
+}
+
 // A read-only numpy view of a vector the owner keeps (no copy).
 py::array view(const VectorX& x, py::handle owner) {
   py::array a(py::dtype::of<double>(), {x.size()}, {sizeof(double)}, x.data(), owner);
@@ -420,6 +509,24 @@ PYBIND11_MODULE(sweep, m) {
       "Run a scene file as `sweep run` does (writing its results to `out` when given) and "
       "return the summary as summary.json holds it. overrides: {path: value}, as --set.");
 
+  py::class_<EquationSystem>(m, "System",
+                             "A system given by its equations: M(q) dv/dt = forces(t, q, v) "
+                             "+ constraint impulses (docs/python.md)")
+      .def(py::init(&systemFromPython), py::arg("name"), py::arg("nq"), py::arg("nv"),
+           py::arg("mass"), py::arg("forces") = py::none(), py::arg("integrate") = py::none(),
+           py::arg("potential") = py::none(), py::arg("constant_mass") = false,
+           py::arg("reference") = py::none())
+      .def_readonly("name", &EquationSystem::name)
+      .def_readonly("nq", &EquationSystem::nq)
+      .def_readonly("nv", &EquationSystem::nv);
+  py::class_<ConstraintFunction>(m, "Constraint",
+                                 "A unilateral constraint gap(q) >= 0 with its normal W_N(q) "
+                                 "(dgap/dt = W_N . v) and, for friction, tangent W_T(q)")
+      .def(py::init(&constraintFromPython), py::arg("name"), py::arg("gap"), py::arg("normal"),
+           py::arg("tangent") = py::none(), py::arg("tangent2") = py::none(),
+           py::arg("friction") = 0.0, py::arg("restitution") = 0.0)
+      .def_readonly("name", &ConstraintFunction::name);
+
   py::class_<Simulation>(m, "Simulation", "A scene stepped from Python.")
       .def(py::init<const std::string&, const std::optional<py::dict>&,
                     const std::vector<std::string>&, const std::optional<std::string>&,
@@ -427,6 +534,61 @@ PYBIND11_MODULE(sweep, m) {
            py::arg("scene"), py::arg("overrides") = py::none(),
            py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
            py::arg("dt") = py::none())
+      .def_static(
+          "from_equations",
+          [](const std::vector<EquationSystem>& systems,
+             const std::vector<ConstraintFunction>& constraints, const VectorX& q0,
+             const VectorX& v0, double dt, double t_end, const std::string& scheme, int dimension,
+             const std::string& normal_law) {
+            ModelBuilder builder("equations");
+            for (const EquationSystem& s : systems) builder.addSystem(s);
+            for (const ConstraintFunction& c : constraints) builder.addConstraint(c);
+            auto scene = std::make_unique<Scene>();
+            scene->model = builder.build();
+            if (dimension != 2 && dimension != 3)
+              throw InputError("dimension: must be 2 or 3, got " + std::to_string(dimension));
+            scene->cmodel.dimension = dimension;
+            if (q0.size() != scene->model.nq || v0.size() != scene->model.nv)
+              throw InputError("q0 and v0: must have " + std::to_string(scene->model.nq) + " and " +
+                               std::to_string(scene->model.nv) + " entries");
+            scene->q0 = q0;
+            scene->v0 = v0;
+            SceneFile file;
+            file.path = "equations";
+            file.spec.dimension = dimension;
+            file.run.scheme.scheme = schemeFromName(scheme);
+            if (normal_law == "vel")
+              file.run.scheme.normal_law = NormalLaw::Vel;
+            else if (normal_law == "iqs")
+              file.run.scheme.normal_law = NormalLaw::Iqs;
+            else if (normal_law == "pos")
+              file.run.scheme.normal_law = NormalLaw::Pos;
+            else
+              throw InputError("normal_law: must be vel, iqs or pos, got '" + normal_law + "'");
+            if (!(dt > 0.0) || !std::isfinite(dt))
+              throw InputError("dt: must be > 0, got " + exactNumber(dt));
+            if (!(t_end > 0.0) || !std::isfinite(t_end))
+              throw InputError("t_end: must be > 0, got " + exactNumber(t_end));
+            file.run.scheme.h = dt;
+            file.run.t_end = t_end;
+            file.run.scheme.validate();
+            return std::make_unique<Simulation>(std::move(file), std::move(scene));
+          },
+          py::arg("systems"), py::arg("constraints") = std::vector<ConstraintFunction>{},
+          py::arg("q0"), py::arg("v0"), py::arg("dt"), py::arg("t_end") = 1.0,
+          py::arg("scheme") = "catching-up", py::arg("dimension") = 2,
+          py::arg("normal_law") = "vel",
+          "A simulation of systems by their equations and constraints by functions, from "
+          "(q0, v0) at t = 0, at the scheme's default settings.")
+      .def(
+          "constraint_impulses",
+          [](const Simulation& s) {
+            const auto& impulses = s.stepper().constraintImpulses();
+            MatrixX out(impulses.size(), 3);
+            for (std::size_t k = 0; k < impulses.size(); ++k) out.row(k) = impulses[k].transpose();
+            return out;
+          },
+          "The last step's impulse (normal, tangents) of each constraint by functions")
       .def("step", &Simulation::step, "One step; returns its statistics.")
       .def("run", &Simulation::run, py::arg("t_end") = py::none(), py::arg("callback") = py::none(),
            "Step to t_end (default: the scene's end); callback(sim) after each step may return "

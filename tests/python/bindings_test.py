@@ -125,6 +125,50 @@ class Scenes(unittest.TestCase):
         self.assertLess(t, 100.0)
 
 
+class Equations(unittest.TestCase):
+    """Systems by their equations and constraints by functions from Python callables."""
+
+    def point_on_floor(self, scheme, e=0.0):
+        m, g = 2.0, 9.81
+        point = sweep.System("point", 2, 2, mass=lambda q: m * np.eye(2),
+                             forces=lambda t, q, v: np.array([0.0, -m * g]),
+                             potential=lambda q: m * g * q[1])
+        floor = sweep.Constraint("floor", gap=lambda q: q[1], normal=lambda q: [0.0, 1.0],
+                                 tangent=lambda q: [1.0, 0.0], friction=0.4, restitution=e)
+        return sweep.Simulation.from_equations([point], [floor], q0=[0.0, 0.1], v0=[1.0, 0.0],
+                                               dt=1e-3, t_end=1.0, scheme=scheme)
+
+    def test_a_point_lands_slides_and_stops(self):
+        for scheme in ("moreau-jean", "catching-up"):
+            sim = self.point_on_floor(scheme)
+            self.assertEqual(sim.run(), 1000)
+            self.assertAlmostEqual(sim.v[0], 0.0, places=9)
+            self.assertAlmostEqual(sim.constraint_impulses()[0, 0], 2.0 * 9.81 * 1e-3,
+                                   places=9)
+            self.assertLess(sim.energy(), 1.0)
+
+    def test_errors_in_callables_reach_the_caller(self):
+        def broken(t, q, v):
+            raise ZeroDivisionError("inside forces")
+        system = sweep.System("broken", 1, 1, mass=lambda q: 1.0, forces=broken)
+        sim = sweep.Simulation.from_equations([system], q0=[0.0], v0=[0.0], dt=1e-3)
+        with self.assertRaises(ZeroDivisionError):
+            sim.run(t_end=0.01)
+        wrong = sweep.System("wrong", 1, 1, mass=lambda q: np.eye(2))
+        with self.assertRaises(RuntimeError) as error:
+            sim = sweep.Simulation.from_equations([wrong], q0=[0.0], v0=[0.0], dt=1e-3)
+            sim.step()
+        self.assertIn("system 'wrong': its mass matrix must be a finite 1 x 1 matrix",
+                      str(error.exception))
+        with self.assertRaises(sweep.InputError):
+            sweep.System("short", 2, 1, mass=lambda q: np.eye(1))  # nq != nv, no integrate
+            sweep.Simulation.from_equations([sweep.System("short", 2, 1,
+                                                          mass=lambda q: np.eye(1))],
+                                            q0=[0.0, 0.0], v0=[0.0], dt=1e-3)
+        with self.assertRaises(sweep.InputError):
+            sweep.Simulation.from_equations([system], q0=[0.0, 1.0], v0=[0.0], dt=1e-3)
+
+
 class Urdf(unittest.TestCase):
     def setUp(self):
         self.model = sweep.Model.from_urdf(ARM)

@@ -38,6 +38,42 @@ class Examples(unittest.TestCase):
         total = float(result.stdout.split("of ")[1].split(" J")[0])
         self.assertLess(abs(drift), 1e-2 * max(1.0, abs(total)))
 
+    def test_painleve_rod(self):
+        png = os.path.join(scratch_dir(self, "sweep_examples_"), "painleve.png")
+        result = subprocess.run([sys.executable,
+                                 os.path.join(SOURCE, "examples/python/painleve_rod.py"), png,
+                                 "0.02"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        lines = {line.split(":")[0]: line for line in result.stdout.splitlines()}
+        first = {s: float(lines[s].split("impulse ")[1].split()[0])
+                 for s in ("moreau-jean", "catching-up")}
+        # Jean-Moreau jams with an impulse of order one (0.3 N s), the staggered scheme takes
+        # about the weight's impulse per step (m g h = 9.8e-4 N s) and slides on
+        self.assertAlmostEqual(first["moreau-jean"], 0.3, delta=0.01)
+        self.assertLess(first["catching-up"], 5 * 9.81e-4)
+        self.assertTrue(os.path.getsize(png) > 10000)
+
+    def test_kane_impact(self):
+        result = subprocess.run([sys.executable,
+                                 os.path.join(SOURCE, "examples/python/kane_impact.py")],
+                                capture_output=True, text=True, timeout=300)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        found = {}
+        for line in result.stdout.splitlines():
+            scheme, rest = line.split(": v+ = (")
+            v = [float(x) for x in rest.split(")")[0].split(",")]
+            gain = float(rest.split("change ")[1].split()[0])
+            found[scheme] = (v, gain)
+        # the numbers of the solver-level test (tests/integrators/nlgs_test.cpp, KaneImpact)
+        (v, gain) = found["moreau-jean"]
+        self.assertAlmostEqual(v[0], 1.0, delta=1e-4)
+        self.assertAlmostEqual(v[1], -1.02195, delta=1e-4)
+        self.assertAlmostEqual(gain, 0.4959, delta=1e-3)
+        (v, gain) = found["catching-up"]
+        self.assertAlmostEqual(v[0], 1.0, delta=1e-5)
+        self.assertAlmostEqual(v[1], 0.0, delta=1e-5)
+        self.assertLess(gain, 0.0)
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)
