@@ -74,6 +74,27 @@ class Examples(unittest.TestCase):
         self.assertAlmostEqual(v[1], 0.0, delta=1e-5)
         self.assertLess(gain, 0.0)
 
+    def test_woodpecker_linearized_model(self):
+        png = os.path.join(scratch_dir(self, "sweep_examples_"), "woodpecker.png")
+        result = subprocess.run([sys.executable,
+                                 os.path.join(SOURCE, "examples/python/woodpecker.py"), png,
+                                 "0.6"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        found = {}
+        for line in result.stdout.splitlines():
+            if " pecks, period " not in line:
+                continue
+            scheme, rest = line.split(": ")
+            found[scheme] = (int(rest.split()[0]), float(rest.split("period ")[1].split()[0]),
+                             float(rest.split("descent ")[1].split()[0]))
+        # Jean-Moreau: the periodic descent of Glocker's model (0.146 s, 0.128 m/s over 1 s)
+        pecks, period, descent = found["moreau-jean"]
+        self.assertGreaterEqual(pecks, 3)
+        self.assertAlmostEqual(period, 0.146, delta=0.005)
+        self.assertAlmostEqual(descent, 0.128, delta=0.02)
+        # the staggered scheme's frozen thresholds cannot jam the sleeve: it slides (V9)
+        self.assertGreater(found["catching-up"][2], 1.0)
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)
