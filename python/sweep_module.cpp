@@ -69,11 +69,20 @@ std::vector<std::string> overrideList(const std::optional<py::dict>& overrides) 
   return out;
 }
 
-SceneFile loadScene(const std::string& path, const std::optional<py::dict>& overrides,
+// A scene is a file's path, or a dict that holds what a scene file would (its text is the
+// dict as JSON, which is YAML; relative file names are taken from base_dir).
+SceneFile loadScene(const py::object& scene, const std::optional<py::dict>& overrides,
                     const std::vector<std::string>& settings_files,
                     const std::optional<std::string>& scheme, std::optional<double> dt,
-                    std::optional<double> t_end) {
-  SceneFile file = loadSceneFile(path, overrideList(overrides), settings_files);
+                    std::optional<double> t_end, const std::string& base_dir = ".") {
+  SceneFile file;
+  if (py::isinstance<py::dict>(scene)) {
+    const std::string text = py::module_::import("json").attr("dumps")(scene).cast<std::string>();
+    file = loadSceneText(text, base_dir + "/<scene dict>", overrideList(overrides), settings_files);
+  } else {
+    file =
+        loadSceneFile(py::str(scene).cast<std::string>(), overrideList(overrides), settings_files);
+  }
   if (scheme) file.run.scheme.scheme = schemeFromName(*scheme);
   if (dt) {
     if (!(*dt > 0.0) || !std::isfinite(*dt))
@@ -152,10 +161,11 @@ py::dict stepStatsDict(const StepStats& s) {
 // A scene stepped from Python: the scene file, its model and the stepper, owned together.
 class Simulation {
  public:
-  Simulation(const std::string& path, const std::optional<py::dict>& overrides,
+  Simulation(const py::object& scene, const std::optional<py::dict>& overrides,
              const std::vector<std::string>& settings_files,
-             const std::optional<std::string>& scheme, std::optional<double> dt)
-      : file_(loadScene(path, overrides, settings_files, scheme, dt, std::nullopt)),
+             const std::optional<std::string>& scheme, std::optional<double> dt,
+             const std::string& base_dir)
+      : file_(loadScene(scene, overrides, settings_files, scheme, dt, std::nullopt, base_dir)),
         scene_(std::make_unique<Scene>(buildSceneFile(file_))),
         stepper_(std::make_unique<TimeStepper>(scene_->model, scene_->cmodel, file_.run.scheme,
                                                scene_->forces)) {
@@ -489,11 +499,12 @@ PYBIND11_MODULE(sweep, m) {
 
   m.def(
       "run",
-      [](const std::string& scene, const std::optional<std::string>& out,
+      [](const py::object& scene, const std::optional<std::string>& out,
          const std::optional<py::dict>& overrides, const std::vector<std::string>& settings_files,
          const std::optional<std::string>& scheme, std::optional<double> dt,
-         std::optional<double> t_end) {
-        const SceneFile file = loadScene(scene, overrides, settings_files, scheme, dt, t_end);
+         std::optional<double> t_end, const std::string& base_dir) {
+        const SceneFile file =
+            loadScene(scene, overrides, settings_files, scheme, dt, t_end, base_dir);
         const Scene built = buildSceneFile(file);
         RunOptions options;
         options.out_dir = out.value_or("");
@@ -505,8 +516,9 @@ PYBIND11_MODULE(sweep, m) {
       },
       py::arg("scene"), py::arg("out") = py::none(), py::arg("overrides") = py::none(),
       py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
-      py::arg("dt") = py::none(), py::arg("t_end") = py::none(),
-      "Run a scene file as `sweep run` does (writing its results to `out` when given) and "
+      py::arg("dt") = py::none(), py::arg("t_end") = py::none(), py::arg("base_dir") = ".",
+      "Run a scene (a file's path, or a dict of what the file would hold) as `sweep run` does "
+      "(writing its results to `out` when given) and "
       "return the summary as summary.json holds it. overrides: {path: value}, as --set.");
 
   py::class_<EquationSystem>(m, "System",
@@ -528,12 +540,14 @@ PYBIND11_MODULE(sweep, m) {
       .def_readonly("name", &ConstraintFunction::name);
 
   py::class_<Simulation>(m, "Simulation", "A scene stepped from Python.")
-      .def(py::init<const std::string&, const std::optional<py::dict>&,
+      .def(py::init<const py::object&, const std::optional<py::dict>&,
                     const std::vector<std::string>&, const std::optional<std::string>&,
-                    std::optional<double>>(),
+                    std::optional<double>, const std::string&>(),
            py::arg("scene"), py::arg("overrides") = py::none(),
            py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
-           py::arg("dt") = py::none())
+           py::arg("dt") = py::none(), py::arg("base_dir") = ".",
+           "A scene (a file's path, or a dict of what the file would hold; relative file names "
+           "from base_dir) ready to step")
       .def_static(
           "from_equations",
           [](const std::vector<EquationSystem>& systems,

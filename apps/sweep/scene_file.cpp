@@ -879,6 +879,19 @@ SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>&
   return scene;
 }
 
+SceneFile loadSceneText(const std::string& text, const std::string& path,
+                        const std::vector<std::string>& overrides,
+                        const std::vector<std::string>& settings_files) {
+  YAML::Node root = parseYamlText(text, path);
+  for (const std::string& settings : settings_files)
+    for (const FieldOverride& o : loadOverrideFile(settings)) applyOverride(root, o, path);
+  for (const std::string& o : overrides) applyOverride(root, o, path);
+  SceneFile scene;
+  scene.path = path;
+  SceneParser(path, scene, kMaxGeneratorCount).parse(YamlField(root, path));
+  return scene;
+}
+
 SceneFile loadSceneText(const std::string& text, const std::string& path, long max_count) {
   YAML::Node root = parseYamlText(text, path);
   SceneFile scene;

@@ -49,6 +49,10 @@ inline constexpr long kMaxGeneratorCount = 10000000;
 // max_count lowers the generator limit (the fuzzer keeps inputs small with it).
 SceneFile loadSceneText(const std::string& text, const std::string& path,
                         long max_count = kMaxGeneratorCount);
+// The same with settings files and overrides applied, as loadSceneFile does.
+SceneFile loadSceneText(const std::string& text, const std::string& path,
+                        const std::vector<std::string>& overrides,
+                        const std::vector<std::string>& settings_files);
 
 // Builds the Model, contact model and initial state; InputError names the file.
 Scene buildSceneFile(const SceneFile& file);

@@ -48,6 +48,33 @@ class Scenes(unittest.TestCase):
             np.testing.assert_array_equal(sim.v, cli["v"])
             self.assertGreater(len(sim.contacts()["gap"]), 10)
 
+    def test_a_scene_built_in_code_runs_as_its_file_does(self):
+        scene = {
+            "dimension": 2, "gravity": [0, -9.81],
+            "materials": {"steel": {"density": 7800}},
+            "contact": {"friction": 0.3, "restitution": 0.5},
+            "bodies": [
+                {"name": "floor", "shape": "half_plane", "position": [0, 0], "normal": [0, 1],
+                 "fixed": True, "material": "steel"},
+                {"name": "disk", "shape": "disk", "radius": 0.01, "position": [0, 0.05],
+                 "velocity": [0.2, 0], "material": "steel"},
+            ],
+            "time": {"step": 1e-4, "end": 0.1},
+        }
+        folder = scratch_dir(self, "sweep_py_")
+        path = os.path.join(folder, "scene.yaml")
+        with open(path, "w") as f:
+            json.dump(scene, f)  # JSON is YAML
+        subprocess.run([SWEEP, "run", path, "--out", os.path.join(folder, "out"), "--quiet"],
+                       check=True, capture_output=True)
+        cli = final_state(os.path.join(folder, "out"))
+        sim = sweep.Simulation(scene)
+        sim.run()
+        np.testing.assert_array_equal(sim.q, cli["q"])
+        with self.assertRaises(sweep.InputError) as error:
+            sweep.Simulation(dict(scene, time={"step": -1.0, "end": 0.1}))
+        self.assertIn("<scene dict>: time.step", str(error.exception))
+
     def test_run_returns_the_summary(self):
         out = scratch_dir(self, "sweep_py_")
         summary = sweep.run(FUNNEL, out=out, t_end=0.02, overrides={"output.vtk_interval": 0})
