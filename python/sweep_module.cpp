@@ -77,7 +77,15 @@ SceneFile loadScene(const py::object& scene, const std::optional<py::dict>& over
                     std::optional<double> t_end, const std::string& base_dir = ".") {
   SceneFile file;
   if (py::isinstance<py::dict>(scene)) {
-    const std::string text = py::module_::import("json").attr("dumps")(scene).cast<std::string>();
+    // numpy arrays and scalars go in as lists and numbers
+    const py::cpp_function plain([](const py::object& value) -> py::object {
+      if (py::hasattr(value, "tolist")) return value.attr("tolist")();
+      throw InputError("scene dict: " + py::repr(value).cast<std::string>() +
+                       " is not a number, string, list or dict");
+    });
+    const std::string text = py::module_::import("json")
+                                 .attr("dumps")(scene, py::arg("default") = plain)
+                                 .cast<std::string>();
     file = loadSceneText(text, base_dir + "/<scene dict>", overrideList(overrides), settings_files);
   } else {
     file =

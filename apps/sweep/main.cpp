@@ -175,7 +175,8 @@ int main(int argc, char** argv) {
         throw sweep::InputError(export_path + ": is a folder; export writes a scene file");
     }
     if (view->parsed()) {
-      std::cout << "wrote " << sweep::writeViewer(view_options) << "\n";
+      const std::string page = sweep::writeViewer(view_options);
+      std::cout << "wrote " << page << "\n";
       return 0;
     }
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);

@@ -168,15 +168,22 @@ Distribution IterationHistogram::distribution() const {
 
 void writeFileAtomically(const std::string& path, const std::string& text) {
   const std::string partial = path + ".partial";
+  std::error_code error;
   {
     std::ofstream out(partial, std::ios::binary);
     out << text;
     out.flush();
-    if (!out.good()) throw std::runtime_error(partial + ": cannot write (disk full?)");
+    if (!out.good()) {
+      fs::remove(partial, error);  // nothing half-written stays behind
+      throw std::runtime_error(partial + ": cannot write (disk full?)");
+    }
   }
-  std::error_code error;
   fs::rename(partial, path, error);
-  if (error) throw std::runtime_error(path + ": cannot rename into place: " + error.message());
+  if (error) {
+    const std::string why = error.message();
+    fs::remove(partial, error);
+    throw std::runtime_error(path + ": cannot rename into place: " + why);
+  }
 }
 
 SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap) {

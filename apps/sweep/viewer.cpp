@@ -324,6 +324,13 @@ std::string writeViewer(const ViewerOptions& options) {
     throw InputError(collection.string() +
                      ": not found; run the scene with output.vtk_interval or output.vtk_every "
                      "set to write snapshots");
+  const std::string out =
+      options.out_file.empty() ? (dir / "view.html").string() : options.out_file;
+  if (fs::is_directory(out, error))
+    throw InputError("--out: " + out + " is a folder; the page is one file, e.g. view.html");
+  const fs::path out_folder = fs::absolute(fs::path(out)).parent_path();
+  if (!fs::is_directory(out_folder, error))
+    throw InputError("--out: " + out + ": the folder " + out_folder.string() + " does not exist");
   const std::string pvd = readWhole(collection, kMaxCollectionBytes, "snapshot collection");
 
   // the collection's (time, file) entries, in order
@@ -406,8 +413,6 @@ std::string writeViewer(const ViewerOptions& options) {
   replaceOnce(page, "/*SWEEP_CONTROLS*/",
               readWhole(controls, kMaxCollectionBytes, "OrbitControls"));
   replaceOnce(page, "/*SWEEP_DATA*/", data.str());
-  const std::string out =
-      options.out_file.empty() ? (dir / "view.html").string() : options.out_file;
   writeFileAtomically(out, page);
   return out;
 }

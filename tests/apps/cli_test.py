@@ -125,6 +125,8 @@ class FullDisk(unittest.TestCase):
         self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
         self.assertIn("summary.json.partial: cannot write (disk full?)", r.stderr)
         self.assertFalse(os.path.exists(os.path.join(out, "summary.json")))
+        # nor does the temporary stay behind
+        self.assertFalse(os.path.lexists(os.path.join(out, "summary.json.partial")))
 
 
 class Inputs(unittest.TestCase):

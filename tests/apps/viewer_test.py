@@ -171,6 +171,14 @@ class BadInput(unittest.TestCase):
             f.write(text.replace('file="vtk/', 'file="../../etc/', 1))
         self.assert_refused("snapshots.pvd: DataSet file: must be a path inside")
 
+    def test_an_out_path_that_cannot_be_a_page(self):
+        folder = os.path.join(self.out, "vtk")
+        self.assert_refused("--out: " + folder + " is a folder", args=("--out", folder))
+        missing = os.path.join(self.out, "no", "page.html")
+        self.assert_refused("the folder " + os.path.dirname(missing) + " does not exist",
+                            args=("--out", missing))
+        self.assertEqual([f for f in os.listdir(self.out) if f.endswith(".partial")], [])
+
     def test_every_below_one(self):
         self.assert_refused("--every: must be >= 1, got 0", args=("--every", "0"))
 
