@@ -328,23 +328,24 @@ class Simulation {
 
 // Python callables as the C++ functions of a system or constraint: each call takes the GIL
 // (the stepper runs without it) and checks what comes back.
-MatrixX matrixResult(const py::object& r, const std::string& who) {
+// What a callable returned as a matrix or vector (a number is a 1 x 1 one).
+template <class Result>
+Result numericResult(const py::object& r, const std::string& who) {
   try {
     if (py::isinstance<py::float_>(r) || py::isinstance<py::int_>(r))
-      return MatrixX::Constant(1, 1, r.cast<double>());
-    return r.cast<MatrixX>();
+      return Result::Constant(1, 1, r.cast<double>());
+    return r.cast<Result>();
   } catch (const py::cast_error&) {
-    throw std::runtime_error(who + " must return a matrix of numbers");
+    throw std::runtime_error(who + " must return " +
+                             (Result::ColsAtCompileTime == 1 ? "a vector" : "a matrix") +
+                             " of numbers");
   }
 }
+MatrixX matrixResult(const py::object& r, const std::string& who) {
+  return numericResult<MatrixX>(r, who);
+}
 VectorX vectorResult(const py::object& r, const std::string& who) {
-  try {
-    if (py::isinstance<py::float_>(r) || py::isinstance<py::int_>(r))
-      return VectorX::Constant(1, r.cast<double>());
-    return r.cast<VectorX>();
-  } catch (const py::cast_error&) {
-    throw std::runtime_error(who + " must return a vector of numbers");
-  }
+  return numericResult<VectorX>(r, who);
 }
 
 EquationSystem systemFromPython(const std::string& name, int nq, int nv, py::function mass,

@@ -867,37 +867,35 @@ class SceneParser {
 
 }  // namespace
 
-SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides,
-                        const std::vector<std::string>& settings_files) {
-  YAML::Node root = loadYamlFile(path);
+namespace {
+// A parsed document with the settings files' entries and then the overrides applied, parsed
+// into a scene.
+SceneFile sceneFrom(YAML::Node root, const std::string& path,
+                    const std::vector<std::string>& overrides,
+                    const std::vector<std::string>& settings_files, long max_count) {
   for (const std::string& settings : settings_files)
     for (const FieldOverride& o : loadOverrideFile(settings)) applyOverride(root, o, path);
   for (const std::string& o : overrides) applyOverride(root, o, path);
   SceneFile scene;
   scene.path = path;
-  SceneParser(path, scene, kMaxGeneratorCount).parse(YamlField(root, path));
+  SceneParser(path, scene, std::min(max_count, kMaxGeneratorCount)).parse(YamlField(root, path));
   return scene;
+}
+}  // namespace
+
+SceneFile loadSceneFile(const std::string& path, const std::vector<std::string>& overrides,
+                        const std::vector<std::string>& settings_files) {
+  return sceneFrom(loadYamlFile(path), path, overrides, settings_files, kMaxGeneratorCount);
 }
 
 SceneFile loadSceneText(const std::string& text, const std::string& path,
                         const std::vector<std::string>& overrides,
                         const std::vector<std::string>& settings_files) {
-  YAML::Node root = parseYamlText(text, path);
-  for (const std::string& settings : settings_files)
-    for (const FieldOverride& o : loadOverrideFile(settings)) applyOverride(root, o, path);
-  for (const std::string& o : overrides) applyOverride(root, o, path);
-  SceneFile scene;
-  scene.path = path;
-  SceneParser(path, scene, kMaxGeneratorCount).parse(YamlField(root, path));
-  return scene;
+  return sceneFrom(parseYamlText(text, path), path, overrides, settings_files, kMaxGeneratorCount);
 }
 
 SceneFile loadSceneText(const std::string& text, const std::string& path, long max_count) {
-  YAML::Node root = parseYamlText(text, path);
-  SceneFile scene;
-  scene.path = path;
-  SceneParser(path, scene, std::min(max_count, kMaxGeneratorCount)).parse(YamlField(root, path));
-  return scene;
+  return sceneFrom(parseYamlText(text, path), path, {}, {}, max_count);
 }
 
 }  // namespace sweep
