@@ -14,11 +14,20 @@ SOURCE = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "."
 
 
 class Examples(unittest.TestCase):
-    def test_funnel(self):
-        png = os.path.join(scratch_dir(self, "sweep_examples_"), "funnel.png")
-        result = subprocess.run([sys.executable, os.path.join(SOURCE, "examples/python/funnel.py"),
-                                 png, "0.02"], capture_output=True, text=True, timeout=300)
+    def run_example(self, script, *args, figure=None):
+        """Runs examples/python/SCRIPT with the figure's path (in a scratch folder) first, when
+        it takes one; returns (its stdout, the figure's path)."""
+        png = os.path.join(scratch_dir(self, "sweep_examples_"), figure) if figure else None
+        command = [sys.executable, os.path.join(SOURCE, "examples", "python", script)]
+        result = subprocess.run(command + ([png] if png else []) + list(args),
+                                capture_output=True, text=True, timeout=300)
         self.assertEqual(result.returncode, 0, result.stderr)
+        if png:
+            self.assertGreater(os.path.getsize(png), 10000)
+        return result.stdout, png
+
+    def test_funnel(self):
+        _, png = self.run_example("funnel.py", "0.02", figure="funnel.png")
         image = matplotlib.image.imread(png)
         self.assertGreater(image.shape[1], 1000)
         # the disks are drawn in orange: (1.0, 0.5, 0.05)
@@ -27,39 +36,26 @@ class Examples(unittest.TestCase):
         self.assertGreater(int(orange.sum()), 2000)
 
     def test_arm_dynamics(self):
-        png = os.path.join(scratch_dir(self, "sweep_examples_"), "arm.png")
-        result = subprocess.run([sys.executable,
-                                 os.path.join(SOURCE, "examples/python/arm_dynamics.py"), png,
-                                 "0.5"], capture_output=True, text=True, timeout=300)
-        self.assertEqual(result.returncode, 0, result.stderr)
-        self.assertTrue(os.path.getsize(png) > 10000)
+        out, _ = self.run_example("arm_dynamics.py", "0.5", figure="arm.png")
         # semi-implicit Euler at h = 1e-4 keeps the energy to a small fraction over 0.5 s
-        drift = float(result.stdout.split("end ")[1].split(" J")[0])
-        total = float(result.stdout.split("of ")[1].split(" J")[0])
+        drift = float(out.split("end ")[1].split(" J")[0])
+        total = float(out.split("of ")[1].split(" J")[0])
         self.assertLess(abs(drift), 1e-2 * max(1.0, abs(total)))
 
     def test_painleve_rod(self):
-        png = os.path.join(scratch_dir(self, "sweep_examples_"), "painleve.png")
-        result = subprocess.run([sys.executable,
-                                 os.path.join(SOURCE, "examples/python/painleve_rod.py"), png,
-                                 "0.02"], capture_output=True, text=True, timeout=300)
-        self.assertEqual(result.returncode, 0, result.stderr)
-        lines = {line.split(":")[0]: line for line in result.stdout.splitlines()}
+        out, _ = self.run_example("painleve_rod.py", "0.02", figure="painleve.png")
+        lines = {line.split(":")[0]: line for line in out.splitlines()}
         first = {s: float(lines[s].split("impulse ")[1].split()[0])
                  for s in ("moreau-jean", "catching-up")}
         # Jean-Moreau jams with an impulse of order one (0.3 N s), the staggered scheme takes
         # about the weight's impulse per step (m g h = 9.8e-4 N s) and slides on
         self.assertAlmostEqual(first["moreau-jean"], 0.3, delta=0.01)
         self.assertLess(first["catching-up"], 5 * 9.81e-4)
-        self.assertTrue(os.path.getsize(png) > 10000)
 
     def test_kane_impact(self):
-        result = subprocess.run([sys.executable,
-                                 os.path.join(SOURCE, "examples/python/kane_impact.py")],
-                                capture_output=True, text=True, timeout=300)
-        self.assertEqual(result.returncode, 0, result.stderr)
+        out, _ = self.run_example("kane_impact.py")
         found = {}
-        for line in result.stdout.splitlines():
+        for line in out.splitlines():
             scheme, rest = line.split(": v+ = (")
             v = [float(x) for x in rest.split(")")[0].split(",")]
             gain = float(rest.split("change ")[1].split()[0])
@@ -75,13 +71,9 @@ class Examples(unittest.TestCase):
         self.assertLess(gain, 0.0)
 
     def test_woodpecker_linearized_model(self):
-        png = os.path.join(scratch_dir(self, "sweep_examples_"), "woodpecker.png")
-        result = subprocess.run([sys.executable,
-                                 os.path.join(SOURCE, "examples/python/woodpecker.py"), png,
-                                 "0.6"], capture_output=True, text=True, timeout=300)
-        self.assertEqual(result.returncode, 0, result.stderr)
+        out, _ = self.run_example("woodpecker.py", "0.6", figure="woodpecker.png")
         found = {}
-        for line in result.stdout.splitlines():
+        for line in out.splitlines():
             if " pecks, period " not in line:
                 continue
             scheme, rest = line.split(": ")
