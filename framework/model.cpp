@@ -207,6 +207,8 @@ void ModelBuilder::addConstraint(const ConstraintFunction& constraint) {
                      formatValue(constraint.restitution));
   if (constraint.friction > 0.0 && !constraint.tangent)
     throw InputError(who + ": friction needs a tangent function");
+  if (constraint.bilateral && (constraint.friction != 0.0 || constraint.restitution != 0.0))
+    throw InputError(who + ": a bilateral constraint takes no friction and no restitution");
   constraints_.push_back(constraint);
 }
 

@@ -71,6 +71,9 @@ struct ConstraintFunction {
   std::function<VectorX(const VectorX& q)> normal;
   std::function<VectorX(const VectorX&q)> tangent, tangent2;  // null: none
   double friction = 0.0, restitution = 0.0;
+  // g(q) = 0 rather than >= 0 (a closed loop): its impulse takes either sign, it is in every
+  // solve, and it has no friction or restitution
+  bool bilateral = false;
 };
 
 // A one-sided bound on a 1-dof joint, kept as a unilateral constraint for the contact solve:

@@ -302,6 +302,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.restitution.clear();
   p.velocity_start.clear();
   p.normal_bias.clear();
+  p.bilateral.clear();
   p.rolling = J.rolling;
   p.rolling_h.clear();
   p.rolling_minv_h.clear();
@@ -674,7 +675,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     double rate = std::abs(normal.dot(v_start));
     if (v_free) rate = std::max(rate, std::abs(normal.dot(*v_free)));
     const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * rate;
-    if (gap > reach) continue;
+    if (gap > reach && !f.bilateral) continue;
     if (normal.isZero(0.0))
       throw std::runtime_error("constraint '" + f.name + "': its normal is zero at the gap " +
                                std::to_string(gap) + ": the constraint moves nothing");
@@ -689,7 +690,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
     }
     finishRow(Vector3::Zero(), gap, f.friction, f.restitution, Vector2::Zero(), 0.0);
+    if (f.bilateral) {
+      p.bilateral.resize(p.size(), 0);
+      p.bilateral.back() = 1;
+    }
   }
+  if (!p.bilateral.empty()) p.bilateral.resize(p.size(), 0);
 
   // islands numbered in order of their first row: deterministic
   const int n = p.size();
@@ -710,9 +716,13 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   ws.touched.assign(island_begin.begin(), island_begin.end() - 1);  // fill cursors
   for (int c = 0; c < n; ++c)
     p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
-  if (p.pack_rows) {
+  // packed rows have no bilateral case: such problems take the generic paths
+  if (p.pack_rows && p.bilateral.empty()) {
     p.pack2d();
     p.pack3d();
+  } else {
+    p.rows2d.clear();
+    p.packed_slot.clear();
   }
 }
 

@@ -56,6 +56,11 @@ struct ContactProblem {
   std::vector<double> gap, friction, restitution;
   std::vector<Vector3> velocity_start;  // U_c^k = H_c^T v_k + known_c
   std::vector<double> normal_bias;      // e U_N^k + gap term: U*_N = U_N + normal_bias
+  // per row, 1 for an equality U*_N = 0 with a normal impulse of either sign (a bilateral
+  // constraint by functions); empty when there is none. Problems with such rows are not
+  // packed: the solvers read them through the generic paths, which ask isBilateral.
+  std::vector<char> bilateral;
+  bool isBilateral(int c) const { return !bilateral.empty() && bilateral[c] != 0; }
 
   // Rolling resistance (empty unless the scene has it): per row, the relative angular velocity
   // U_r = H_r^T v + rolling_known about the two tangents (3D) or z (2D, second entry zero),

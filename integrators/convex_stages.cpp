@@ -309,7 +309,7 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
       lambda_N[c] = 0.0;
       continue;
     }
-    ws.normal_var[c] = ws.set.add(BlockSet::NonNegative, 1);
+    ws.normal_var[c] = ws.set.add(p.isBilateral(c) ? BlockSet::Free : BlockSet::NonNegative, 1);
     ws.normal_scale[c] = 1.0 / s;
     ws.target[c] = -p.normal_bias[c];
     ws.x.push_back(s * lambda_N[c]);
@@ -337,9 +337,11 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   collectDofs(p, static_cast<int>(v.size()), ws);
   const bool global = options.tangents == TangentMode::Global;
   prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, nlgs);
-  auto held = [&](int c) { return global && lambda_N[c] > 0.0; };
+  // a bilateral row is held whatever the sign of its impulse
+  auto closed = [&](int c) { return lambda_N[c] > 0.0 || p.isBilateral(c); };
+  auto held = [&](int c) { return global && closed(c); };
   auto guarded = [&](int c) {
-    return global && options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);
+    return global && options.open_contacts == OpenContacts::Unilateral && !closed(c);
   };
   auto rollingRow = [&](int c) {
     return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0 && lambda_N[c] > 0.0;
@@ -358,13 +360,13 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
   std::fill(nlgs.offset.begin(), nlgs.offset.end(), Vector2::Zero());
   bool needs_projection = false;
   for (int c = 0; c < n; ++c)
-    needs_projection = needs_projection || (lambda_N[c] > 0.0 && p.normal_bias[c] != 0.0);
+    needs_projection = needs_projection || (closed(c) && p.normal_bias[c] != 0.0);
   if (global && needs_projection) {
     prepareRows(ws, n);
     ws.x.clear();
     for (int c = 0; c < n; ++c) {
       const double s_N = std::sqrt(p.delassus[c](0, 0));
-      if (!(lambda_N[c] > 0.0) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
+      if (!closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
       ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
       ws.normal_scale[c] = 1.0 / s_N;
       ws.target[c] = nlgs.held_normal[c];

@@ -311,6 +311,11 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
       rollingResidual(rolling_row, p.dimension, P[c].x(), (*R)[c], u_rolling, f2, scale2);
     u.x() += bias;
     const Vector3 ru = u / W_NN;
+    if (p.isBilateral(c)) {  // the natural map of an equality: its velocity
+      f2 += ru.x() * ru.x();
+      scale2 += std::max(P[c].squaredNorm(), ru.squaredNorm());
+      return;
+    }
     // P = 0 with U*_N >= 0 meets the law: the cone's projection of -(U* + mu |U*_T| e_N) is
     // then zero in floating point too (U*_N + mu |U*_T| >= mu |U*_T|), and the map adds
     // nothing. A screened powder step's open rows, 40 % of its rows, skip the projection.
@@ -664,7 +669,8 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
       Vector3 P_new = Vector3::Zero();
       bool ok = true;
       if (p.friction[c] == 0.0) {
-        P_new.x() = std::max(-q.x() * p.delassus_inverse[c](0, 0), 0.0);
+        P_new.x() = -q.x() * p.delassus_inverse[c](0, 0);
+        if (!p.isBilateral(c)) P_new.x() = std::max(P_new.x(), 0.0);
       } else if (p.dimension == 2) {
         Vector2 P2;
         ok = solveCoulomb2d(W.topLeftCorner<2, 2>(), p.delassus_inverse[c].topLeftCorner<2, 2>(),
@@ -715,7 +721,7 @@ double normalResidual(const ContactProblem& p, const std::vector<double>& lambda
     const double s = std::sqrt(p.delassus[c](0, 0));
     const double xi = (p.localVelocity(c, v).x() + p.normal_bias[c]) / s;
     const double Lambda = s * lambda_N[c];
-    const double f = Lambda - std::max(Lambda - xi, 0.0);
+    const double f = p.isBilateral(c) ? xi : Lambda - std::max(Lambda - xi, 0.0);
     f2 += f * f;
     scale2 += std::max(Lambda * Lambda, xi * xi);
   }
@@ -782,8 +788,9 @@ NlgsStats normalIsland(const ContactProblem& p, const NlgsSettings& settings,
       // Lambda <- [Lambda - omega xi]_+ is, in physical units, the clamp below
       const double W_NN = p.delassus[c](0, 0);
       const double U_star = p.localVelocity(c, v).x() + p.normal_bias[c];
-      const double lambda_new = std::max(
-          lambda_N[c] - settings.relaxation * U_star * p.normal_compliance_inverse[c], 0.0);
+      double lambda_new =
+          lambda_N[c] - settings.relaxation * U_star * p.normal_compliance_inverse[c];
+      if (!p.isBilateral(c)) lambda_new = std::max(lambda_new, 0.0);
       const double d_lambda = lambda_new - lambda_N[c];
       p.applyImpulse(c, Vector3(d_lambda, 0, 0), v);
       lambda_N[c] = lambda_new;
@@ -856,14 +863,16 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // GLOBAL mode holds the normal velocity of every contact closed by stage 5a (lambda_N > 0),
   // frictionless ones (mu = 0 pairs, joint limits) included: friction elsewhere must not
   // push them open or closed
-  auto held = [&](int c) { return options.tangents == TangentMode::Global && lambda_N[c] > 0.0; };
+  // (a bilateral row is held whatever the sign of its impulse)
+  auto closed = [&](int c) { return lambda_N[c] > 0.0 || p.isBilateral(c); };
+  auto held = [&](int c) { return options.tangents == TangentMode::Global && closed(c); };
   // The other rows keep stage 5a's normal law, U_N + bias >= 0 _|_ delta >= 0
   // (OpenContacts::Unilateral): without it, friction at the held rows drives bodies into the
   // contacts 5a left open, and under VEL nothing pushes them out again. In a deep powder heap
   // that overlap grew to 38 um (docs/schemes.md, "Open contacts in stage 5b").
   auto guarded = [&](int c) {
     return options.tangents == TangentMode::Global &&
-           options.open_contacts == OpenContacts::Unilateral && !(lambda_N[c] > 0.0);
+           options.open_contacts == OpenContacts::Unilateral && !closed(c);
   };
   // a guarded row's projected Gauss-Seidel step on delta, at normal velocity u_N: updates
   // delta and the sweep's measures, returns the change (v is the caller's to update)
@@ -892,7 +901,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
   // With U*_N = U_N (e = 0, VEL) the closed contacts have U_N = 0 after stage 5a, up to the
   // tolerance, and v_N vanishes: skipped
   for (int c = 0; c < n; ++c)
-    needs_projection = needs_projection || (lambda_N[c] > 0.0 && p.normal_bias[c] != 0.0);
+    needs_projection = needs_projection || (closed(c) && p.normal_bias[c] != 0.0);
   if (options.tangents == TangentMode::Global && needs_projection) {
     if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
     ws.v_normal.setZero();
@@ -900,7 +909,7 @@ NlgsStats solveFrictionStage(const ContactProblem& p, const NlgsSettings& settin
     for (int sweep_count = 0; sweep_count < settings.max_iterations; ++sweep_count) {
       double change2 = 0.0, size2 = 0.0;
       for (int c = 0; c < n; ++c) {
-        if (lambda_N[c] <= 0.0) continue;
+        if (!closed(c)) continue;
         // residual of W_N^T v_N = W_N^T v1 (the known term cancels)
         const double r = ws.held_normal[c] - p.localVelocity(c, ws.v_normal).x();
         const double dy = r / p.delassus[c](0, 0);

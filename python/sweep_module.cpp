@@ -385,9 +385,10 @@ EquationSystem systemFromPython(const std::string& name, int nq, int nv, py::fun
 ConstraintFunction constraintFromPython(const std::string& name, py::function gap,
                                         py::function normal, std::optional<py::function> tangent,
                                         std::optional<py::function> tangent2, double friction,
-                                        double restitution) {
+                                        double restitution, bool bilateral) {
   ConstraintFunction c;
   c.name = name;
+  c.bilateral = bilateral;
   c.friction = friction;
   c.restitution = restitution;
   const std::string who = "constraint '" + name + "': ";
@@ -541,11 +542,11 @@ PYBIND11_MODULE(sweep, m) {
       .def_readonly("nq", &EquationSystem::nq)
       .def_readonly("nv", &EquationSystem::nv);
   py::class_<ConstraintFunction>(m, "Constraint",
-                                 "A unilateral constraint gap(q) >= 0 with its normal W_N(q) "
-                                 "(dgap/dt = W_N . v) and, for friction, tangent W_T(q)")
+                                 "A constraint gap(q) >= 0 (bilateral: = 0) with its normal "
+                                 "W_N(q) (dgap/dt = W_N . v) and, for friction, tangent W_T(q)")
       .def(py::init(&constraintFromPython), py::arg("name"), py::arg("gap"), py::arg("normal"),
            py::arg("tangent") = py::none(), py::arg("tangent2") = py::none(),
-           py::arg("friction") = 0.0, py::arg("restitution") = 0.0)
+           py::arg("friction") = 0.0, py::arg("restitution") = 0.0, py::arg("bilateral") = false)
       .def_readonly("name", &ConstraintFunction::name);
 
   py::class_<Simulation>(m, "Simulation", "A scene stepped from Python.")

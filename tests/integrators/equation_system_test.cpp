@@ -178,6 +178,56 @@ TEST_P(EquationSystems, MixWithBodiesWithoutChangingThem) {
   EXPECT_NEAR(b.v()[1], -kG * 0.5, 1e-12);
 }
 
+// A pendulum as a point mass on a rod: the bilateral constraint |q| - L = 0, whose impulse
+// (the rod's tension) points inwards, against its normal. The mass stays on the circle, swings
+// with the small-angle period 2 pi sqrt(L / g), and the energy does not grow.
+TEST_P(EquationSystems, BilateralRodMakesAPendulum) {
+  const double m = 1.5, L = 0.5, h = 1e-3, angle = 0.1;
+  EquationSystem point;
+  point.name = "bob";
+  point.nq = point.nv = 2;
+  point.mass = [m](const VectorX&) { return MatrixX(m * MatrixX::Identity(2, 2)); };
+  point.constant_mass = true;
+  point.forces = [m](double, const VectorX&, const VectorX&) {
+    return VectorX(Eigen::Vector2d(0.0, -m * kG));
+  };
+  point.potential = [m](const VectorX& q) { return m * kG * q[1]; };
+  ConstraintFunction rod;
+  rod.name = "rod";
+  rod.bilateral = true;
+  rod.gap = [L](const VectorX& q) { return q.norm() - L; };
+  rod.normal = [](const VectorX& q) { return VectorX(q / q.norm()); };
+  ModelBuilder builder("pendulum by its equations");
+  builder.addSystem(point);
+  builder.addConstraint(rod);
+  const Model model = builder.build();
+  const ContactModel cmodel = planar();
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), h));
+  stepper.reset(0.0, Eigen::Vector2d(L * std::sin(angle), -L * std::cos(angle)), VectorX::Zero(2));
+  const double energy0 = stepper.energy();
+  double worst_length = 0.0, highest_energy = energy0, previous_x = stepper.q()[0];
+  std::vector<double> crossings;
+  for (int k = 0; k < 3000; ++k) {
+    const StepStats& s = stepper.step();
+    ASSERT_EQ(s.active, 1);
+    EXPECT_LT(stepper.constraintImpulses()[0].x(), 0.0);  // tension
+    worst_length = std::max(worst_length, std::abs(stepper.q().norm() - L));
+    highest_energy = std::max(highest_energy, stepper.energy());
+    const double x = stepper.q()[0];
+    if ((previous_x > 0.0) != (x > 0.0))  // linear interpolation of the crossing time
+      crossings.push_back(stepper.time() - h * x / (x - previous_x));
+    previous_x = x;
+  }
+  EXPECT_LT(worst_length, 1e-3 * L);
+  EXPECT_LT(highest_energy - energy0, 1e-6 * std::abs(energy0));
+  ASSERT_GE(crossings.size(), 4u);
+  const double period =
+      2.0 * (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  // small-angle period, raised by (1 + angle^2 / 16) at this amplitude
+  const double expected = 2.0 * M_PI * std::sqrt(L / kG) * (1.0 + angle * angle / 16.0);
+  EXPECT_NEAR(period, expected, 2e-3 * expected);
+}
+
 INSTANTIATE_TEST_SUITE_P(BothSchemes, EquationSystems,
                          ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const auto& param_info) {
@@ -210,6 +260,9 @@ TEST(EquationSystemErrors, DefinitionsAreChecked) {
   c.normal = [](const VectorX&) { return VectorX(VectorX::Ones(1)); };
   c.friction = 0.5;
   EXPECT_THROW(builder.addConstraint(c), InputError);  // friction without a tangent
+  c.tangent = [](const VectorX&) { return VectorX(VectorX::Ones(1)); };
+  c.bilateral = true;
+  EXPECT_THROW(builder.addConstraint(c), InputError);  // a bilateral one with friction
 
   // a singular mass matrix at the reference configuration
   ModelBuilder singular("singular");

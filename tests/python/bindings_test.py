@@ -174,6 +174,25 @@ class Equations(unittest.TestCase):
                                    places=9)
             self.assertLess(sim.energy(), 1.0)
 
+    def test_a_bilateral_rod_pulls(self):
+        m, length, g = 1.5, 0.5, 9.81
+        bob = sweep.System("bob", 2, 2, mass=lambda q: m * np.eye(2),
+                           forces=lambda t, q, v: np.array([0.0, -m * g]))
+        rod = sweep.Constraint("rod", gap=lambda q: np.linalg.norm(q) - length,
+                               normal=lambda q: q / np.linalg.norm(q), bilateral=True)
+        sim = sweep.Simulation.from_equations([bob], [rod], q0=[0.05, -length], v0=[0.0, 0.0],
+                                              dt=1e-3)
+        sim.run(t_end=0.5)
+        # the tension, m g h per step at rest, points against the rod's normal
+        self.assertLess(sim.constraint_impulses()[0, 0], -0.9 * m * g * 1e-3)
+        self.assertLess(abs(np.linalg.norm(sim.q) - np.hypot(0.05, length)), 1e-3)
+        with self.assertRaises(sweep.InputError):
+            sweep.Simulation.from_equations(
+                [bob], [sweep.Constraint("rod", gap=lambda q: q[0], normal=lambda q: [1.0, 0.0],
+                                         tangent=lambda q: [0.0, 1.0], friction=0.5,
+                                         bilateral=True)],
+                q0=[0.0, 0.0], v0=[0.0, 0.0], dt=1e-3)
+
     def test_errors_in_callables_reach_the_caller(self):
         def broken(t, q, v):
             raise ZeroDivisionError("inside forces")
