@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "contact/contact_model.hpp"
 #include "framework/error.hpp"
@@ -27,18 +28,23 @@ ContactModel planar() {
   return cmodel;
 }
 
-// A point mass m in the plane, q = (x, y), on the floor y >= 0 with friction mu and
-// restitution e, under gravity.
-Model pointMassOnFloor(double m, double mu, double e) {
-  EquationSystem mass;
-  mass.name = "point";
-  mass.nq = mass.nv = 2;
-  mass.mass = [m](const VectorX&) { return MatrixX(m * MatrixX::Identity(2, 2)); };
-  mass.constant_mass = true;
-  mass.forces = [m](double, const VectorX&, const VectorX&) {
+// A point mass m in the plane, q = (x, y), under gravity along -y.
+EquationSystem pointMass(const std::string& name, double m) {
+  EquationSystem point;
+  point.name = name;
+  point.nq = point.nv = 2;
+  point.mass = [m](const VectorX&) { return MatrixX(m * MatrixX::Identity(2, 2)); };
+  point.constant_mass = true;
+  point.forces = [m](double, const VectorX&, const VectorX&) {
     return VectorX(Eigen::Vector2d(0.0, -m * kG));
   };
-  mass.potential = [m](const VectorX& q) { return m * kG * q[1]; };
+  point.potential = [m](const VectorX& q) { return m * kG * q[1]; };
+  return point;
+}
+
+// The point mass on the floor y >= 0 with friction mu and restitution e.
+Model pointMassOnFloor(double m, double mu, double e) {
+  const EquationSystem mass = pointMass("point", m);
   ConstraintFunction floor;
   floor.name = "floor";
   floor.gap = [](const VectorX& q) { return q[1]; };
@@ -183,15 +189,7 @@ TEST_P(EquationSystems, MixWithBodiesWithoutChangingThem) {
 // with the small-angle period 2 pi sqrt(L / g), and the energy does not grow.
 TEST_P(EquationSystems, BilateralRodMakesAPendulum) {
   const double m = 1.5, L = 0.5, h = 1e-3, angle = 0.1;
-  EquationSystem point;
-  point.name = "bob";
-  point.nq = point.nv = 2;
-  point.mass = [m](const VectorX&) { return MatrixX(m * MatrixX::Identity(2, 2)); };
-  point.constant_mass = true;
-  point.forces = [m](double, const VectorX&, const VectorX&) {
-    return VectorX(Eigen::Vector2d(0.0, -m * kG));
-  };
-  point.potential = [m](const VectorX& q) { return m * kG * q[1]; };
+  const EquationSystem point = pointMass("bob", m);
   ConstraintFunction rod;
   rod.name = "rod";
   rod.bilateral = true;
