@@ -212,6 +212,24 @@ void ModelBuilder::addConstraint(const ConstraintFunction& constraint) {
   constraints_.push_back(constraint);
 }
 
+void ModelBuilder::addJointCoupling(int follower, int leader, double multiplier, double offset) {
+  if (follower < 0 || follower >= bodyCount() || leader < 0 || leader >= bodyCount())
+    throw InputError(source_ + ": joint coupling on an unknown body");
+  const Body& f = bodies_[follower];
+  const Body& l = bodies_[leader];
+  const std::string who =
+      source_ + ": joint '" + f.joint_name + "' following '" + l.joint_name + "'";
+  if (follower == leader) throw InputError(who + ": a joint cannot follow itself");
+  for (const Body* b : {&f, &l})
+    if (b->joint.nq() != 1)
+      throw InputError(who + ": a coupling needs two 1-dof joints (revolute, continuous or " +
+                       "prismatic), joint '" + b->joint_name + "' is " + toString(b->joint.type));
+  if (!std::isfinite(multiplier) || !std::isfinite(offset))
+    throw InputError(who + ": multiplier and offset must be finite, got " +
+                     formatValue(multiplier) + " and " + formatValue(offset));
+  couplings_.push_back(JointCoupling{follower, leader, multiplier, offset});
+}
+
 void ModelBuilder::setGravity(const Vector3& gravity) {
   if (!gravity.allFinite()) throw InputError(source_ + ": gravity has non-finite entries");
   gravity_ = gravity;
@@ -310,6 +328,23 @@ Model ModelBuilder::build() const {
   model.nq = iq;
   model.nv = iv;
   model.constraints = constraints_;
+  for (const JointCoupling& c : couplings_) {
+    const Body& f = model.bodies[new_index[c.follower]];
+    const Body& l = model.bodies[new_index[c.leader]];
+    const int fq = f.q_index, lq = l.q_index, fv = f.v_index, lv = l.v_index, nv = iv;
+    const double multiplier = c.multiplier, offset = c.offset;
+    ConstraintFunction k;
+    k.name = "mimic '" + f.joint_name + "'";
+    k.gap = [=](const VectorX& q) { return q[fq] - multiplier * q[lq] - offset; };
+    k.normal = [=](const VectorX&) {
+      VectorX w = VectorX::Zero(nv);
+      w[fv] = 1.0;
+      w[lv] -= multiplier;
+      return w;
+    };
+    k.bilateral = true;
+    model.constraints.push_back(std::move(k));
+  }
   for (JointLimit l : limits_) {
     l.body = new_index[l.body];
     l.q_index = model.bodies[l.body].q_index;

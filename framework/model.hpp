@@ -167,6 +167,9 @@ class ModelBuilder {
   // constraint by functions; InputError naming the missing or inconsistent part.
   void addSystem(const EquationSystem& system);
   void addConstraint(const ConstraintFunction& constraint);
+  // q[follower] = multiplier * q[leader] + offset between two 1-dof joints (a URDF <mimic>):
+  // a bilateral constraint by functions, after those added by addConstraint.
+  void addJointCoupling(int follower, int leader, double multiplier, double offset);
   int bodyCount() const { return static_cast<int>(bodies_.size()); }
 
   // Orders bodies component by component (depth-first), assigns coordinate indices and checks
@@ -181,6 +184,11 @@ class ModelBuilder {
   std::vector<DrivenBody> driven_;
   std::vector<EquationSystem> systems_;
   std::vector<ConstraintFunction> constraints_;
+  struct JointCoupling {
+    int follower, leader;
+    double multiplier, offset;
+  };
+  std::vector<JointCoupling> couplings_;  // body indices of this builder
   Vector3 gravity_ = Vector3(0, 0, -9.81);
 };
 

@@ -95,6 +95,13 @@ class Importer {
       : builder_(builder), source_(source), base_dir_(base_dir), options_(options) {}
 
   int run(const urdf::ModelInterface& urdf) {
+    const int first = addTrees(urdf);
+    addMimicCouplings();
+    return first;
+  }
+
+ private:
+  int addTrees(const urdf::ModelInterface& urdf) {
     const urdf::LinkConstSharedPtr root = urdf.getRoot();
     if (!root) fail("<robot>", "has no root link");
     if (root->name == "world") {
@@ -117,7 +124,30 @@ class Importer {
     return body;
   }
 
- private:
+  // A <mimic> joint follows its leader, q = multiplier q_leader + offset: a bilateral
+  // constraint in every solve, once the whole file is read (the leader may come later).
+  void addMimicCouplings() {
+    for (const Mimic& m : mimics_) {
+      const std::string where = "joint '" + m.joint + "' <mimic>";
+      const auto leader = joint_body_.find(m.leader);
+      if (leader == joint_body_.end())
+        fail(where, "it follows joint '" + m.leader + "', which is not in the file");
+      if (m.leader == m.joint) fail(where, "a joint cannot follow itself");
+      if (!std::isfinite(m.multiplier) || !std::isfinite(m.offset))
+        fail(where, "multiplier and offset must be finite, got " + number(m.multiplier) + " and " +
+                        number(m.offset));
+      const auto one_dof = [&](const urdf::Joint& j) {
+        if (j.type != urdf::Joint::REVOLUTE && j.type != urdf::Joint::CONTINUOUS &&
+            j.type != urdf::Joint::PRISMATIC)
+          fail(where, "mimic needs revolute, continuous or prismatic joints; joint '" + j.name +
+                          "' is not");
+      };
+      one_dof(*joints_.at(m.joint));
+      one_dof(*joints_.at(m.leader));
+      builder_.addJointCoupling(joint_body_.at(m.joint), leader->second, m.multiplier, m.offset);
+    }
+  }
+
   [[noreturn]] void fail(const std::string& element, const std::string& reason) const {
     throw InputError(source_ + ": " + element + ": " + reason);
   }
@@ -262,15 +292,13 @@ class Importer {
                    const Pose& parent_offset) {
     const urdf::LinkConstSharedPtr link = urdf.getLink(j.child_link_name);
     if (!link) fail("joint '" + j.name + "'", "child link '" + j.child_link_name + "' not found");
-    // a mimic joint is a linear constraint between two coordinates, which the tree importer
-    // does not build: refused, never silently dropped
-    if (j.mimic)
-      fail("joint '" + j.name + "' <mimic>", "mimic joints are not supported (joint '" + j.name +
-                                                 "' would move freely instead " + "of following '" +
-                                                 j.mimic->joint_name + "')");
     const int body = builder_.addBody(parent, options_.name_prefix + j.name, toJoint(j),
                                       parent_offset * toPose(j.parent_to_joint_origin_transform),
                                       linkInertia(*link), options_.name_prefix + link->name);
+    joint_body_[j.name] = body;
+    joints_[j.name] = &j;
+    if (j.mimic)
+      mimics_.push_back({j.name, j.mimic->joint_name, j.mimic->multiplier, j.mimic->offset});
     if ((j.type == urdf::Joint::REVOLUTE || j.type == urdf::Joint::PRISMATIC)) {
       if (!j.limits) fail("joint '" + j.name + "'", "revolute and prismatic joints need <limit>");
       if (!(std::isfinite(j.limits->lower) && std::isfinite(j.limits->upper)))
@@ -294,6 +322,13 @@ class Importer {
   std::string source_;
   std::string base_dir_;
   UrdfOptions options_;
+  struct Mimic {
+    std::string joint, leader;
+    double multiplier, offset;
+  };
+  std::vector<Mimic> mimics_;
+  std::map<std::string, int> joint_body_;  // builder body of each joint's child link
+  std::map<std::string, const urdf::Joint*> joints_;
 };
 
 // TinyXML (2.6.2, Debian 12) steps over a UTF-8 character by its lead byte's length without

@@ -643,13 +643,16 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
               p.rolling ? J.known_spin[c] : Vector2::Zero(), contact.rolling);
   }
 
+  // Under VEL a limit or a constraint by functions is closed at gap <= kClosedGap (m or rad):
+  // a state placed on the constraint lands a few ulps off it, and must not start open.
+  constexpr double kClosedGap = 1e-12;
   // joint limits: gap = side (q - bound) >= 0, W_N = side on the joint's velocity
   for (int l = 0; l < static_cast<int>(model.limits.size()); ++l) {
     const JointLimit& limit = model.limits[l];
     const double gap = limit.side * (q_m[limit.q_index] - limit.bound);
     double rate = std::abs(v_start[limit.v_index]);
     if (v_free) rate = std::max(rate, std::abs((*v_free)[limit.v_index]));
-    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * rate;
+    const double reach = law == NormalLaw::Vel ? kClosedGap : 2.0 * tau * rate;
     if (gap > reach) continue;
     p.contact.push_back(-1 - l);
     p.dof.push_back(limit.v_index);
@@ -674,7 +677,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     const VectorX normal = direction(f.normal, "normal");
     double rate = std::abs(normal.dot(v_start));
     if (v_free) rate = std::max(rate, std::abs(normal.dot(*v_free)));
-    const double reach = law == NormalLaw::Vel ? 0.0 : 2.0 * tau * rate;
+    const double reach = law == NormalLaw::Vel ? kClosedGap : 2.0 * tau * rate;
     if (gap > reach && !f.bilateral) continue;
     if (normal.isZero(0.0))
       throw std::runtime_error("constraint '" + f.name + "': its normal is zero at the gap " +

@@ -298,6 +298,8 @@ Scene buildScene(const SceneSpec& spec) {
     addUrdf(mb, urdf.file, options);
     urdf_bodies.emplace_back(first, mb.bodyCount());
   }
+  for (const EquationSystem& system : spec.systems) mb.addSystem(system);
+  for (const ConstraintFunction& constraint : spec.constraints) mb.addConstraint(constraint);
 
   Scene scene;
   scene.model = mb.build();

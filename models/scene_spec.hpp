@@ -83,6 +83,10 @@ struct SceneSpec {
   std::vector<BodySpec> bodies;
   std::vector<UrdfSpec> urdfs;
   std::vector<LoadSpec> loads;
+  // Systems by their equations and constraints by functions (code only: a scene file has no
+  // syntax for callables); their coordinates follow the bodies', at their reference, at rest.
+  std::vector<EquationSystem> systems;
+  std::vector<ConstraintFunction> constraints;
   DetectionSettings detection;
   // Bodies that overlap by more than this at t = 0 (m) are an input error: a run would start
   // with an O(1) push-out or a silently wrong state. < 0: no check.
@@ -109,8 +113,8 @@ std::vector<double> sampleRadii(const RadiusDistribution& distribution, int coun
 // (a mesh without explicit mass and inertia, a half-plane).
 Inertia bodyInertia(const BodySpec& body, double density, int dimension);
 
-// Builds the Model (dynamic bodies, then URDF trees; driven bodies), the ContactModel and the
-// initial state. InputError naming the body for anything inconsistent.
+// Builds the Model (dynamic bodies, then URDF trees, then systems; driven bodies), the ContactModel
+// and the initial state. InputError naming the body for anything inconsistent.
 Scene buildScene(const SceneSpec& spec);
 
 // The largest coordinate a scene or a saved state may hold (m or rad).

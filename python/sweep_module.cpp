@@ -167,13 +167,23 @@ py::dict stepStatsDict(const StepStats& s) {
 }
 
 // A scene stepped from Python: the scene file, its model and the stepper, owned together.
+SceneFile withEquations(SceneFile file, const std::vector<EquationSystem>& systems,
+                        const std::vector<ConstraintFunction>& constraints) {
+  file.spec.systems = systems;
+  file.spec.constraints = constraints;
+  return file;
+}
+
 class Simulation {
  public:
   Simulation(const py::object& scene, const std::optional<py::dict>& overrides,
              const std::vector<std::string>& settings_files,
              const std::optional<std::string>& scheme, std::optional<double> dt,
-             const std::string& base_dir)
-      : file_(loadScene(scene, overrides, settings_files, scheme, dt, std::nullopt, base_dir)),
+             const std::string& base_dir, const std::vector<EquationSystem>& systems,
+             const std::vector<ConstraintFunction>& constraints)
+      : file_(withEquations(
+            loadScene(scene, overrides, settings_files, scheme, dt, std::nullopt, base_dir),
+            systems, constraints)),
         scene_(std::make_unique<Scene>(buildSceneFile(file_))),
         stepper_(std::make_unique<TimeStepper>(scene_->model, scene_->cmodel, file_.run.scheme,
                                                scene_->forces)) {
@@ -552,12 +562,17 @@ PYBIND11_MODULE(sweep, m) {
   py::class_<Simulation>(m, "Simulation", "A scene stepped from Python.")
       .def(py::init<const py::object&, const std::optional<py::dict>&,
                     const std::vector<std::string>&, const std::optional<std::string>&,
-                    std::optional<double>, const std::string&>(),
+                    std::optional<double>, const std::string&, const std::vector<EquationSystem>&,
+                    const std::vector<ConstraintFunction>&>(),
            py::arg("scene"), py::arg("overrides") = py::none(),
            py::arg("settings_files") = std::vector<std::string>{}, py::arg("scheme") = py::none(),
            py::arg("dt") = py::none(), py::arg("base_dir") = ".",
+           py::arg("systems") = std::vector<EquationSystem>{},
+           py::arg("constraints") = std::vector<ConstraintFunction>{},
            "A scene (a file's path, or a dict of what the file would hold; relative file names "
-           "from base_dir) ready to step")
+           "from base_dir) ready to step; systems by their equations and constraints by "
+           "functions join its bodies (their coordinates after the bodies', at their reference, "
+           "at rest; set_state sets others)")
       .def_static(
           "from_equations",
           [](const std::vector<EquationSystem>& systems,

@@ -148,9 +148,12 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"inertial_origin.urdf", "urdfdom reported an error and left part of the file out"},
         // Latin-1 text: the parser would read it as UTF-8 (and TinyXML past the buffer's end)
         BadUrdf{"invalid_utf8.urdf", "line 3: not valid UTF-8 (byte 0xE9 at offset 56)"},
-        BadUrdf{"mimic.urdf",
-                "joint 'finger_right' <mimic>: mimic joints are not supported (joint "
-                "'finger_right' would move freely instead of following 'finger_left')"},
+        BadUrdf{"mimic_unknown_leader.urdf",
+                "joint 'finger_right' <mimic>: it follows joint 'finger_left', which is not in "
+                "the file"},
+        BadUrdf{"mimic_fixed_leader.urdf",
+                "joint 'finger_right' <mimic>: mimic needs revolute, continuous or prismatic "
+                "joints; joint 'palm_mount' is not"},
         BadUrdf{"mesh_scale_zero.urdf",
                 "link 'a' <collision>: mesh scale must be > 0 and finite in each axis, got "
                 "\"0 0 0\""},

@@ -7,7 +7,9 @@
 
 #include "contact/contact_model.hpp"
 #include "framework/error.hpp"
+#include "framework/urdf_import.hpp"
 #include "integrators/time_stepper.hpp"
+#include "models/rigid_bodies.hpp"
 
 namespace sweep {
 namespace {
@@ -224,6 +226,164 @@ TEST_P(EquationSystems, BilateralRodMakesAPendulum) {
   // small-angle period, raised by (1 + angle^2 / 16) at this amplitude
   const double expected = 2.0 * M_PI * std::sqrt(L / kG) * (1.0 + angle * angle / 16.0);
   EXPECT_NEAR(period, expected, 2e-3 * expected);
+}
+
+// A URDF <mimic> joint (tests/data/urdf/gripper_mimic.urdf): the right finger follows the left,
+// q_r = 2 q_l + 0.01. Gravity along -x pulls the left finger closed and the right one open; held
+// together, the left opens at a = -g (m_l - 2 m_r) / (m_l + 4 m_r) = +1.962 m/s^2. The constraint
+// is linear and solved at the velocity level, so the midpoint update keeps it to round-off.
+TEST_P(EquationSystems, UrdfMimicJointHoldsItsRatio) {
+  ModelBuilder builder("gripper");
+  addUrdf(builder, std::string(SWEEP_TEST_DATA) + "/urdf/gripper_mimic.urdf");
+  builder.setGravity(Vector3(-kG, 0.0, 0.0));
+  const Model model = builder.build();
+  ASSERT_EQ(model.constraints.size(), 1u);
+  const int left = model.dofIndex("finger_left"), right = model.dofIndex("finger_right");
+  const ContactModel cmodel;
+  const double h = 1e-3, a = -kG * (0.1 - 2.0 * 0.1) / (0.1 + 4.0 * 0.1);
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), h));
+  VectorX q0 = VectorX::Zero(model.nq);
+  q0[left] = 0.01;
+  q0[right] = 2.0 * 0.01 + 0.01;
+  stepper.reset(0.0, q0, VectorX::Zero(model.nv));
+  double worst_ratio = 0.0;
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_EQ(stepper.step().active, 1);
+    worst_ratio =
+        std::max(worst_ratio, std::abs(stepper.q()[right] - 2.0 * stepper.q()[left] - 0.01));
+  }
+  EXPECT_LT(worst_ratio, 1e-12);
+  const double t = stepper.time();
+  EXPECT_NEAR(stepper.q()[left], 0.01 + 0.5 * a * t * t, 1e-9);
+  EXPECT_NEAR(stepper.v()[left], a * t, 1e-9);
+}
+
+// A double pendulum (point masses 1 at the ends of unit links, 0.01 about each centre, the
+// elbow limited to +-0.1 rad) built from bodies, against the same written by its equations:
+// M(q), Coriolis and gravity in relative angles, the limits as two constraints by functions.
+// Released at 1 rad, the elbow hits its limits; the two runs agree to round-off.
+TEST_P(EquationSystems, DoublePendulumByItsEquationsMatchesTheTree) {
+  const double m = 1.0, I = 0.01, limit = 0.1, h = 1e-3;
+  ModelBuilder trees("double pendulum");
+  const Inertia link{m, Vector3(0, -1, 0), I * Matrix3::Identity()};
+  const int upper =
+      trees.addBody(-1, "shoulder", Joint::revolute(Vector3::UnitZ()), Pose{}, link, "upper");
+  Pose elbow_placement;
+  elbow_placement.translation = Vector3(0, -1, 0);
+  const int lower = trees.addBody(upper, "elbow", Joint::revolute(Vector3::UnitZ()),
+                                  elbow_placement, link, "lower");
+  trees.addJointLimits(lower, -limit, limit);
+  trees.setGravity(Vector3(0, -kG, 0));
+  const Model tree = trees.build();
+
+  EquationSystem pendulum;
+  pendulum.name = "double pendulum";
+  pendulum.nq = pendulum.nv = 2;
+  pendulum.mass = [=](const VectorX& q) {
+    const double c2 = std::cos(q[1]);
+    Eigen::Matrix2d M;
+    M << 3 * m + 2 * m * c2 + 2 * I, m + m * c2 + I, m + m * c2 + I, m + I;
+    return MatrixX(M);
+  };
+  pendulum.forces = [=](double, const VectorX& q, const VectorX& v) {
+    const double s2 = std::sin(q[1]), s1 = std::sin(q[0]), s12 = std::sin(q[0] + q[1]);
+    return VectorX(
+        Eigen::Vector2d(m * s2 * (2 * v[0] * v[1] + v[1] * v[1]) - m * kG * (2 * s1 + s12),
+                        -m * s2 * v[0] * v[0] - m * kG * s12));
+  };
+  pendulum.potential = [=](const VectorX& q) {
+    return -m * kG * (2 * std::cos(q[0]) + std::cos(q[0] + q[1]));
+  };
+  ModelBuilder equations("double pendulum by its equations");
+  equations.addSystem(pendulum);
+  for (const double side : {1.0, -1.0}) {
+    ConstraintFunction bound;
+    bound.name = side > 0 ? "elbow lower" : "elbow upper";
+    bound.gap = [=](const VectorX& q) { return side * (q[1] + side * limit); };
+    bound.normal = [=](const VectorX&) { return VectorX(Eigen::Vector2d(0.0, side)); };
+    equations.addConstraint(bound);
+  }
+  const Model system = equations.build();
+
+  const ContactModel cmodel = planar();
+  TimeStepper from_tree(tree, cmodel, settingsFor(GetParam(), h));
+  TimeStepper from_equations(system, cmodel, settingsFor(GetParam(), h));
+  const VectorX q0 = Eigen::Vector2d(1.0, 0.0);
+  from_tree.reset(0.0, q0, VectorX::Zero(2));
+  from_equations.reset(0.0, q0, VectorX::Zero(2));
+  int impacts = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    const int active = from_tree.step().active;
+    ASSERT_EQ(from_equations.step().active, active) << "step " << k;
+    impacts += active;
+    worst = std::max({worst, (from_tree.q() - from_equations.q()).lpNorm<Eigen::Infinity>(),
+                      h * (from_tree.v() - from_equations.v()).lpNorm<Eigen::Infinity>()});
+  }
+  EXPECT_GT(impacts, 0);
+  EXPECT_LT(worst, 1e-10);
+  EXPECT_NEAR(from_tree.energy(), from_equations.energy(), 1e-10);
+}
+
+// V4, the disk on an incline (tan a = 0.6, mu = 0.25: it rolls), as a body on a half-plane and
+// as q = (x, y, theta) with M = diag(m, m, I) and the contact written as a constraint by
+// functions: gap n . p - R, normal (n, 0), tangent (t, r_c x t) with r_c = -R n the contact
+// point from the centre. Both roll at 2/3 g sin a and agree to round-off.
+TEST_P(EquationSystems, DiskOnInclineByItsEquationsMatchesTheBody) {
+  const double m = 1.0, R = 0.1, I = 0.5 * m * R * R, mu = 0.25, h = 1e-3;
+  const double angle = std::atan(0.6);
+  const Eigen::Vector2d n(-std::sin(angle), std::cos(angle)), t(n.y(), -n.x());
+  ModelBuilder bodies("disk on incline");
+  addPlanarBody(bodies, "disk", solidDiskInertia(m, R));
+  bodies.setGravity(Vector3(0, -kG, 0));
+  const Model body = bodies.build();
+  ContactModelBuilder cb(body);
+  cb.materials().setDefaultLaw({mu, 0.0});
+  cb.addGeometry("disk", BodyRef::dynamic(0), Pose::identity(), Shape::disk(R));
+  Pose slope;
+  slope.rotation = Eigen::AngleAxisd(angle, Vector3::UnitZ()).toRotationMatrix();
+  cb.addGeometry("slope", BodyRef::world(), slope, Shape::halfPlane());
+  const ContactModel cmodel = cb.build();
+
+  EquationSystem disk;
+  disk.name = "disk";
+  disk.nq = disk.nv = 3;
+  disk.mass = [=](const VectorX&) { return MatrixX(Eigen::Vector3d(m, m, I).asDiagonal()); };
+  disk.constant_mass = true;
+  disk.forces = [=](double, const VectorX&, const VectorX&) {
+    return VectorX(Eigen::Vector3d(0.0, -m * kG, 0.0));
+  };
+  disk.potential = [=](const VectorX& q) { return m * kG * q[1]; };
+  ConstraintFunction contact;
+  contact.name = "slope";
+  contact.gap = [=](const VectorX& q) { return n.dot(q.head<2>()) - R; };
+  contact.normal = [=](const VectorX&) { return VectorX(Eigen::Vector3d(n.x(), n.y(), 0.0)); };
+  const Eigen::Vector2d r_c = -R * n;
+  contact.tangent = [=](const VectorX&) {
+    return VectorX(Eigen::Vector3d(t.x(), t.y(), r_c.x() * t.y() - r_c.y() * t.x()));
+  };
+  contact.friction = mu;
+  ModelBuilder equations("disk by its equations");
+  equations.addSystem(disk);
+  equations.addConstraint(contact);
+  const Model system = equations.build();
+  const ContactModel none = planar();
+
+  TimeStepper from_body(body, cmodel, settingsFor(GetParam(), h));
+  TimeStepper from_equations(system, none, settingsFor(GetParam(), h));
+  const VectorX q0 = Eigen::Vector3d(R * n.x(), R * n.y(), 0.0);
+  from_body.reset(0.0, q0, VectorX::Zero(3));
+  from_equations.reset(0.0, q0, VectorX::Zero(3));
+  double worst = 0.0;
+  for (int k = 0; k < 500; ++k) {
+    ASSERT_EQ(from_body.step().active, 1);
+    ASSERT_EQ(from_equations.step().active, 1);
+    worst = std::max(worst, (from_body.q() - from_equations.q()).lpNorm<Eigen::Infinity>());
+  }
+  EXPECT_LT(worst, 1e-12);
+  const double speed = -t.dot(from_equations.v().head<2>());  // t points up the slope
+  EXPECT_NEAR(speed, 2.0 / 3.0 * kG * std::sin(angle) * from_equations.time(), 1e-9);
+  EXPECT_NEAR(from_equations.v()[2] * R, speed, 1e-9);  // rolling: omega R = speed
 }
 
 INSTANTIATE_TEST_SUITE_P(BothSchemes, EquationSystems,

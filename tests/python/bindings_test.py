@@ -193,6 +193,30 @@ class Equations(unittest.TestCase):
                                          bilateral=True)],
                 q0=[0.0, 0.0], v0=[0.0, 0.0], dt=1e-3)
 
+    def test_a_system_beside_a_scene_body_moves_as_it_does(self):
+        # V4's scene (a disk rolling down a slope), and beside its body the same disk as
+        # q = (x, y, theta), M = diag(m, m, I), the slope a constraint by functions: both roll
+        # alike, to round-off, in one simulation and both schemes
+        scene = os.path.join(SOURCE, "examples/archetypes/disk_on_incline.yaml")
+        m, radius, g = 1.0, 0.1, 9.81
+        n = np.array([-0.6, 1.0]) / np.hypot(0.6, 1.0)
+        t = np.array([n[1], -n[0]])
+        r_c = -radius * n
+        for scheme in ("moreau-jean", "catching-up"):
+            disk = sweep.System("disk", 3, 3, mass=lambda q: np.diag([m, m, 0.5 * m * radius**2]),
+                                forces=lambda t_, q, v: np.array([0.0, -m * g, 0.0]),
+                                constant_mass=True, reference=[radius * n[0], radius * n[1], 0.0])
+            slope = sweep.Constraint(
+                "slope", gap=lambda q: n @ q[3:5] - radius,
+                normal=lambda q: [0, 0, 0, n[0], n[1], 0],
+                tangent=lambda q: [0, 0, 0, t[0], t[1], r_c[0] * t[1] - r_c[1] * t[0]],
+                friction=0.25)
+            sim = sweep.Simulation(scene, scheme=scheme, systems=[disk], constraints=[slope])
+            self.assertEqual(len(sim.q), 6)
+            self.assertEqual(sim.run(t_end=0.3), 300)
+            self.assertLess(np.max(np.abs(sim.q[:3] - sim.q[3:])), 1e-12)
+            self.assertLess(sim.v[0], -0.5)  # it rolled down the slope
+
     def test_errors_in_callables_reach_the_caller(self):
         def broken(t, q, v):
             raise ZeroDivisionError("inside forces")
