@@ -23,6 +23,7 @@
 #include "framework/dynamics.hpp"
 #include "framework/energy.hpp"
 #include "framework/error.hpp"
+#include "framework/jacobian.hpp"
 #include "framework/kinematics.hpp"
 #include "framework/rnea.hpp"
 #include "framework/urdf_import.hpp"
@@ -476,6 +477,17 @@ class Dynamics {
     return {data_.world_pose[b].rotation, data_.world_pose[b].translation};
   }
   Vector3 com(Input q) { return centerOfMass(model_, data_, takeQ(q)); }
+  MatrixX jacobian(Input q, const std::string& body, const Vector3& point) {
+    const int b = model_.bodyIndex(body);
+    if (!point.allFinite()) throw InputError("point: must be finite");
+    forwardKinematics(model_, data_, takeQ(q));
+    Eigen::Matrix<double, 6, Eigen::Dynamic> J =
+        Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model_.nv);
+    Pose frame;
+    frame.translation = point;
+    frameJacobian(model_, data_, b, frame, J);
+    return J;
+  }
 
  private:
   const VectorX& takeQ(Input q) {
@@ -695,6 +707,10 @@ PYBIND11_MODULE(sweep, m) {
       .def("body_pose", &Dynamics::bodyPose, py::arg("q"), py::arg("body"),
            "(R, p): the body frame's rotation and origin in world")
       .def("center_of_mass", &Dynamics::com, py::arg("q"))
+      .def("jacobian", &Dynamics::jacobian, py::arg("q"), py::arg("body"),
+           py::arg("point") = Vector3::Zero(),
+           "6 x nv: rows 0-2 map v to the body's angular velocity, rows 3-5 to the velocity of "
+           "`point` (body-frame coordinates, default its origin), both in world axes")
       .def("velocity_to_body_frame", &Dynamics::toBodyFrame, py::arg("q"), py::arg("v"),
            "Floating joints' velocities as Pinocchio's free flyer takes them: the linear part "
            "in body axes (Sweep's is in the parent frame); other entries copied")

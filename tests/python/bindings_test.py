@@ -270,6 +270,23 @@ class Urdf(unittest.TestCase):
                                    atol=1e-12)
         np.testing.assert_array_equal(m.coriolis_forces(q, 0 * v), np.zeros(m.nv))
 
+    def test_jacobian_is_the_derivative_of_the_pose(self):
+        # J v against central differences of the body pose along q + eps v (nq = nv here)
+        m, q, v, eps = self.model, self.q, self.v, 1e-6
+        self.assertEqual(m.nq, m.nv)
+        body = m.body_names[-1]
+        point = np.array([0.05, -0.02, 0.1])
+        J = m.jacobian(q, body, point)
+        self.assertEqual(J.shape, (6, m.nv))
+        (R1, p1), (R0, p0) = m.body_pose(q + eps * v, body), m.body_pose(q - eps * v, body)
+        velocity = (R1 @ point + p1 - R0 @ point - p0) / (2 * eps)
+        np.testing.assert_allclose(J[3:] @ v, velocity, atol=1e-8)
+        W = (R1 - R0) / (2 * eps) @ m.body_pose(q, body)[0].T  # the skew matrix of omega
+        np.testing.assert_allclose(J[:3] @ v, [W[2, 1], W[0, 2], W[1, 0]], atol=1e-8)
+        np.testing.assert_array_equal(m.jacobian(q, body)[:3], J[:3])
+        with self.assertRaises(sweep.InputError):
+            m.jacobian(q, "no such body")
+
     def test_floating_base_velocity_conventions(self):
         m = sweep.Model.from_urdf(ARM, floating_base=True)
         self.assertEqual(m.dof_names[:6], ["root_joint:vx", "root_joint:vy", "root_joint:vz",
