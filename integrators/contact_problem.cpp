@@ -311,6 +311,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   p.rolling_bound.clear();
   const int rhs_columns = p.rolling ? 5 : 3;
   ws.row_component.clear();
+  p.row_components.clear();
   for (std::size_t i = 0; i < ws.component_parent.size(); ++i)
     ws.component_parent[i] = static_cast<int>(i);
   auto root = [&](int c) {
@@ -352,6 +353,13 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                            bool diagonal_W = false) {
     // islands: the components of one row are joined
     ws.row_component.push_back(ws.touched.front());
+    std::array<int, 2> moved{ws.touched.front(), -1};
+    for (int comp : ws.touched) {
+      if (comp == moved[0] || comp == moved[1]) continue;
+      moved = moved[1] < 0 ? std::array<int, 2>{moved[0], comp} : std::array<int, 2>{-2, -2};
+      if (moved[0] == -2) break;
+    }
+    p.row_components.push_back(moved);
     for (int comp : ws.touched) {
       const int a = root(ws.touched.front()), b = root(comp);
       if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);

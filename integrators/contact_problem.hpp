@@ -6,6 +6,7 @@
 //
 //   U_c = H_c^T v + known_c              local velocity (normal, tangent1, tangent2)
 //   v   = v_free + sum_c (M^-1 H_c) P_c   velocity after the impulses P_c
+#include <array>
 #include <vector>
 
 #include "framework/data.hpp"
@@ -76,6 +77,9 @@ struct ContactProblem {
   // one island of every row.
   std::vector<int> island_begin;
   std::vector<int> island_rows;
+  // the components (Model::components) each row moves: {a, -1} for one, {a, b} for two, and
+  // {-2, -2} for more (a constraint by functions); the coloured sweeps read them
+  std::vector<std::array<int, 2>> row_components;
 
   // 2D scenes: the same data packed per row, so that one local update reads two cache lines
   // of row data and one stream per row set (filled by pack2d(); empty in 3D)

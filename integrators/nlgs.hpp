@@ -63,6 +63,13 @@ struct NlgsSettings {
   std::uint32_t seed = 1;
   LocalSolver3d local_solver_3d = LocalSolver3d::AlartCurnier;
   NlgsAcceleration acceleration = NlgsAcceleration::None;
+  // An island of at least parallel_rows rows on packed rows, unshuffled, is swept in colour
+  // order: greedy colours by the components the rows move, taken in the rows' order, so that
+  // rows of one colour share no velocity and are updated by `threads` threads at once. The
+  // order and the sums (per fixed chunk of rows, added in chunk order) do not depend on the
+  // thread count: the same bits for every count. Smaller islands keep the rows' order.
+  int threads = 1;
+  int parallel_rows = 4096;
 
   void validate(const std::string& owner) const;  // InputError naming the field
 };
@@ -92,6 +99,15 @@ struct NlgsWorkspace {
   VectorX v_before, v_direction;
   std::vector<int> island_dofs, dof_stamp;
   int stamp = 0;
+  // coloured sweeps (NlgsSettings::parallel_rows): the colours taken at each component (a bit
+  // each), each block's colour, the blocks in colour order as chunks (colour_chunk[k] ..
+  // colour_chunk[k + 1] for colour k, the serial one k = 64 the last; chunk j is
+  // order[chunk_begin[j], chunk_begin[j + 1])) and each chunk's sums
+  std::vector<std::uint64_t> component_colours;
+  std::vector<int> row_colour, coloured_order;
+  std::vector<int> colour_chunk, chunk_begin;
+  std::vector<double> chunk_change2, chunk_size2;
+  std::vector<int> chunk_failures;
   // the convex stage solvers' (every StageSolver but Nlgs): the program's variables and sets, and
   // per row its variables (-1: none) and their scales
   struct Convex {

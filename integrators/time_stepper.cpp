@@ -7,6 +7,8 @@
 #include <limits>
 #include <sstream>
 
+#include <omp.h>
+
 #include "framework/configuration.hpp"
 #include "framework/crba.hpp"
 #include "framework/dynamics.hpp"
@@ -27,12 +29,19 @@ Scheme schemeFromName(const std::string& name) {
   throw InputError("scheme must be moreau-jean or catching-up, got '" + name + "'");
 }
 
+int SchemeSettings::threadCount() const {
+  return threads > 0 ? threads : std::max(1, omp_get_num_procs());
+}
+
 void SchemeSettings::validate() const {
   if (!(std::isfinite(h) && h > 0.0)) {
     std::ostringstream out;
     out << "dt must be > 0, got " << h;
     throw InputError(out.str());
   }
+  if (threads < 0 || threads > 1024)
+    throw InputError("threads must be in [0, 1024] (0: every core), got " +
+                     std::to_string(threads));
   coulomb.validate("moreau_jean.solver");
   if (coulomb.solver != StageSolver::Nlgs)
     throw InputError(
@@ -76,6 +85,8 @@ TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
                        "': friction in a 3D problem needs a second tangent function");
     constraint_friction_ = constraint_friction_ || f.friction > 0.0;
   }
+  settings_.coulomb.threads = settings_.normal_stage.threads = settings_.friction_stage.threads =
+      settings_.threadCount();
   problem_.compact_spheres = settings_.compactSphereRows();
   problem_.pack_body_form = problem_.pack_rows = settings_.packed_rows;
 }

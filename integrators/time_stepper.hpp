@@ -68,6 +68,10 @@ struct SchemeSettings {
   // packed 2D / 3D rows, body form or compact sphere rows; the results agree to round-off (2D:
   // to the bit). What each storage buys: docs/architecture.md, "Contact rows in two forms".
   bool packed_rows = true;
+  // Threads for the solves (0: every core of the machine). The results are the same bits for
+  // every count (NlgsSettings::parallel_rows); it overrides the stages' own `threads`.
+  int threads = 0;
+  int threadCount() const;  // `threads`, or the machine's cores for 0
   bool compactSphereRows() const {
     return compact_sphere_rows.value_or(scheme == Scheme::MoreauJean);
   }

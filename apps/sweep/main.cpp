@@ -60,6 +60,7 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
                                       s.friction_stage.acceleration == sweep::NlgsAcceleration::Nncg
                                 : s.coulomb.acceleration == sweep::NlgsAcceleration::Nncg;
   if (nncg) out << ", NNCG sweeps";
+  out << ", threads " << s.threadCount();
   out << "\n";
 }
 
@@ -116,6 +117,8 @@ int main(int argc, char** argv) {
   run->add_option("--t-end", t_end, "end time (s)");
   run->add_option("--out", out_dir, "output folder")->default_val("results");
   run->add_flag("--quiet", quiet, "no progress");
+  int threads = -1;
+  run->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
   std::string initial_state;
   run->add_option("--initial-state", initial_state,
                   "start from a final_state.csv of an earlier run of this scene (its t, q, v)");
@@ -135,6 +138,7 @@ int main(int argc, char** argv) {
   bench->add_option("--out", out_dir, "output folder")->default_val("bench");
   bench->add_flag("--no-plots", bench_options.no_plots, "write bench.csv only");
   bench->add_flag("--quiet", quiet, "no progress");
+  bench->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
 
   CLI::App* check = app.add_subcommand("check", "validate a scene and describe it");
   addSceneOptions(check);
@@ -181,6 +185,12 @@ int main(int argc, char** argv) {
     }
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
+    if (threads != -1) {
+      if (threads < 0 || threads > 1024)
+        throw sweep::InputError("--threads: must be in [0, 1024] (0: every core), got " +
+                                std::to_string(threads));
+      file.run.scheme.threads = threads;
+    }
     if (run->parsed() && run->count("--dt") > 0) {
       if (!(dt > 0.0) || !std::isfinite(dt))
         throw sweep::InputError("--dt: must be > 0, got " + sweep::exactNumber(dt));

@@ -332,6 +332,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
 
   RunSummary summary;
   summary.scheme = schemeName(settings.scheme.scheme);
+  summary.threads = settings.scheme.threadCount();
   summary.dt = h;
   summary.t_end = settings.t_end;
   summary.margin_verified =
@@ -457,6 +458,7 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
   };
   nlohmann::ordered_json j;
   j["scheme"] = s.scheme;
+  j["threads"] = s.threads;
   j["dt"] = s.dt;
   j["t_end"] = s.t_end;
   j["t_reached"] = s.t_reached;

@@ -59,6 +59,7 @@ class IterationHistogram {
 
 struct RunSummary {
   std::string scheme;
+  int threads = 1;  // the solves' threads (cpu_seconds adds up every thread's time)
   double dt = 0.0, t_end = 0.0, t_reached = 0.0;
   long steps = 0;
   double cpu_seconds = 0.0, wall_seconds = 0.0;

@@ -676,7 +676,7 @@ class SceneParser {
   // convex: a stage of scheme B, which may take the convex solver
   NlgsSettings parseSolver(const YamlField& f, NlgsSettings s, bool convex) {
     f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
-                 "shuffle", "seed", "local_solver", "acceleration"});
+                 "shuffle", "seed", "local_solver", "acceleration", "parallel_rows"});
     const std::string solver = f.text("solver", stageSolverName(s.solver));
     if (solver == "nlgs")
       s.solver = StageSolver::Nlgs;
@@ -718,13 +718,18 @@ class SceneParser {
       s.acceleration = NlgsAcceleration::Nncg;
     else
       f["acceleration"].fail("must be none or nncg");
+    const long parallel_rows = f.integer("parallel_rows", s.parallel_rows);
+    if (parallel_rows < 1 || parallel_rows > 1000000000L)
+      f["parallel_rows"].fail("must be in [1, 10^9]");
+    s.parallel_rows = static_cast<int>(parallel_rows);
     return s;
   }
 
   void parseScheme(const YamlField& f) {
     f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates",
                  "open_contacts", "coulomb", "normal_stage", "friction_stage", "screening",
-                 "screening_rounds", "screening_gap", "compact_sphere_rows", "packed_rows"});
+                 "screening_rounds", "screening_gap", "compact_sphere_rows", "packed_rows",
+                 "threads"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) {
       const std::string name = f["name"].text();
@@ -784,6 +789,9 @@ class SceneParser {
         field.fail("must be auto, true or false");
     }
     s.packed_rows = f.boolean("packed_rows", s.packed_rows);
+    const long threads = f.integer("threads", s.threads);
+    if (threads < 0 || threads > 1024) f["threads"].fail("must be in [0, 1024] (0: every core)");
+    s.threads = static_cast<int>(threads);
     if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, false);
     if (f.has("normal_stage"))
       s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage, true);
@@ -945,6 +953,7 @@ void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
   out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
   out << YAML::Key << "seed" << YAML::Value << s.seed;
   out << YAML::Key << "acceleration" << YAML::Value << nlgsAccelerationName(s.acceleration);
+  out << YAML::Key << "parallel_rows" << YAML::Value << s.parallel_rows;
   out << YAML::EndMap;
 }
 
@@ -1146,6 +1155,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   else
     out << YAML::Value << "auto";
   out << YAML::Key << "packed_rows" << YAML::Value << s.packed_rows;
+  out << YAML::Key << "threads" << YAML::Value << s.threads;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
       << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;
