@@ -168,7 +168,7 @@ void TimeStepper::detect(const DetectionMargins& at_least) {
   margins.balls = std::max(margins.balls, at_least.balls);
   stats_.margin = margins.others;
   stats_.margin_balls = margins.balls;
-  detectContacts(model_, data_, cmodel_, cdata_, t_m, margins);
+  detectContacts(model_, data_, cmodel_, cdata_, t_m, margins, settings_.threadCount());
   std::swap(impulse_, previous_impulse_);
   impulse_.assign(cdata_.contacts.size(), Vector3::Zero());
   std::swap(staged_, previous_staged_);

@@ -151,7 +151,9 @@ std::vector<double> powderDiameters(const PowderBedParameters& p) {
     const double sigma = std::log(p.geometric_std);
     for (double& x : d) {
       do {
-        const double z = std::sqrt(-2.0 * std::log(unit(rng))) * std::cos(2.0 * M_PI * unit(rng));
+        // draws in sequence: the order of a call's operands is the compiler's choice
+        const double radial = unit(rng), angle = unit(rng);
+        const double z = std::sqrt(-2.0 * std::log(radial)) * std::cos(2.0 * M_PI * angle);
         x = p.d50 * std::exp(sigma * z);
       } while (x < p.d_min || x > p.d_max);
     }
@@ -268,7 +270,9 @@ SceneSpec powderBed(const PowderBedParameters& p) {
       b.name = "p" + std::to_string(static_cast<long>(copy) * p.count + i);
       b.shape = Shape::sphere(0.5 * diameters[i]);
       b.material = "powder";
-      const Vector3 shake(jitter * (2.0 * unit(rng) - 1.0), 0.0, jitter * (2.0 * unit(rng) - 1.0));
+      // z drawn first, x second: the order GCC gave the constructor's arguments, sequenced
+      const double shake_z = jitter * (2.0 * unit(rng) - 1.0);
+      const Vector3 shake(jitter * (2.0 * unit(rng) - 1.0), 0.0, shake_z);
       b.pose = at(Vector3(front + (ix + 0.5) * pitch, base + (iy + 0.5) * pitch,
                           offset_z + (iz + 0.5) * pitch_z) +
                   shake);

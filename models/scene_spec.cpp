@@ -165,13 +165,13 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
   return inertia;
 }
 
-void rejectOverlaps(const Scene& scene, const VectorX& q, const VectorX& v, double max_overlap,
-                    double max_relative_overlap, const std::string& where,
+void rejectOverlaps(const Scene& scene, double t, const VectorX& q, const VectorX& v,
+                    double max_overlap, double max_relative_overlap, const std::string& where,
                     const std::string& when) {
   Data data(scene.model);
   forwardKinematics(scene.model, data, q, v);
   ContactData cdata(scene.model, scene.cmodel);
-  detectContacts(scene.model, data, scene.cmodel, cdata, 0.0, 0.0);
+  detectContacts(scene.model, data, scene.cmodel, cdata, t, 0.0);
   for (const Contact& c : cdata.contacts) {
     const Geometry& a = scene.cmodel.geometries[c.key.geometry_a];
     const Geometry& b = scene.cmodel.geometries[c.key.geometry_b];
@@ -399,7 +399,7 @@ Scene buildScene(const SceneSpec& spec) {
                          formatValue(kMaxCoordinate) +
                          " (m or rad): no contact could be resolved at that distance");
   if (spec.max_initial_overlap >= 0.0)
-    rejectOverlaps(scene, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
+    rejectOverlaps(scene, 0.0, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
                    "at t = 0");
   return scene;
 }

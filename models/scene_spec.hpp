@@ -120,11 +120,11 @@ Scene buildScene(const SceneSpec& spec);
 // The largest coordinate a scene or a saved state may hold (m or rad).
 inline constexpr double kMaxCoordinate = 1e6;
 
-// Detection at (q, v) with a zero margin: InputError "<where>: 'a' and 'b' overlap by X m
-// <when>, more than ..." for
-// the first pair deeper than max(max_overlap, max_relative_overlap x the smaller bounding
-// radius of the two).
-void rejectOverlaps(const Scene& scene, const VectorX& q, const VectorX& v, double max_overlap,
-                    double max_relative_overlap, const std::string& where, const std::string& when);
+// Detection at (t, q, v) with a zero margin (driven bodies where they are at t): InputError
+// "<where>: 'a' and 'b' overlap by X m <when>, more than ..." for the first pair deeper than
+// max(max_overlap, max_relative_overlap x the smaller bounding radius of the two).
+void rejectOverlaps(const Scene& scene, double t, const VectorX& q, const VectorX& v,
+                    double max_overlap, double max_relative_overlap, const std::string& where,
+                    const std::string& when);
 
 }  // namespace sweep

@@ -14,7 +14,7 @@ shift || true
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(scene settings snapshot state urdf)
 
-"./scripts/install-deps.sh"
+"./scripts/install-deps.sh" --clang
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF -DSWEEP_BUILD_BENCHMARKS=OFF \
   -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_WERROR=ON >/dev/null

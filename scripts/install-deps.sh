@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs every build and plotting dependency of Sweep from Debian 12's own archive, and with
-# --tests what only the test suite uses (a headless browser for the viewer, VTK's reader).
+# Installs every build and plotting dependency of Sweep from Debian 12's own archive; with
+# --tests what only the test suite uses (a headless browser for the viewer, VTK's reader), with
+# --clang what the clang builds use (the fuzzers, ThreadSanitizer): clang and LLVM's OpenMP.
 # Idempotent: when everything is already installed it touches nothing (and needs no network).
 set -euo pipefail
 
@@ -10,9 +11,13 @@ packages=(
   libsuitesparse-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
   libjs-three pybind11-dev python3-dev python3-matplotlib python3-numpy
 )
-if [ "${1:-}" = "--tests" ]; then
-  packages+=(chromium python3-vtk9)
-fi
+for option in "$@"; do
+  case "$option" in
+    --tests) packages+=(chromium python3-vtk9) ;;
+    --clang) packages+=(clang libomp-dev) ;;
+    *) echo "install-deps: unknown option $option" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -295,7 +295,7 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
                        "'): the orientation quaternion has norm " + exactNumber(norm) + ", not 1");
   }
   if (max_overlap >= 0.0)
-    rejectOverlaps(scene, state.q, state.v, max_overlap, kMaxStateRelativeOverlap, path,
+    rejectOverlaps(scene, state.t, state.q, state.v, max_overlap, kMaxStateRelativeOverlap, path,
                    "at the saved state's t = " + exactNumber(state.t) + " s");
   return state;
 }

@@ -317,6 +317,20 @@ class Restart(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         return out, r
 
+    def test_driven_bodies_are_where_the_saved_time_puts_them(self):
+        """The funnel's shutter is pulled at 0.03 s and disks fall through where it was: a
+        state saved at 0.04 s overlaps the shutter's place at t = 0, not at 0.04 s."""
+        funnel = os.path.join(os.path.dirname(DATA), "..", "examples", "funnel", "funnel.yaml")
+        first = scratch_dir(self, "sweep_restart_")
+        r = sweep("run", funnel, "--out", first, "--quiet", "--t-end", "0.04",
+                  "--set", "output.vtk_interval=0")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        second = scratch_dir(self, "sweep_restart_")
+        r = sweep("run", funnel, "--out", second, "--quiet", "--t-end", "0.045",
+                  "--set", "output.vtk_interval=0",
+                  "--initial-state", os.path.join(first, "final_state.csv"))
+        self.assertEqual(r.returncode, 0, r.stderr)
+
     def test_two_halves_end_where_one_run_ends(self):
         """No contacts, so no warm start is lost: the halves give the same bits. The torque
         ramps with t, so a restart that forgot the saved time would end elsewhere."""

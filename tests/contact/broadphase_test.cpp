@@ -31,9 +31,9 @@ void expectSamePairs(int count, bool planar) {
   VectorX q = scene.model.neutralConfiguration();
   for (int i = 0; i < count; ++i) {
     const Vector3 cell(i % side, (i / side) % side, planar ? 0 : i / (side * side));
-    const Vector3 position =
-        2.1 * cell + Vector3(jitter(rng), jitter(rng), planar ? 0.0 : jitter(rng));
-    test::placeBody(scene.model, q, i, position, test::randomOrientation(rng, planar));
+    const Quaternion orientation = test::randomOrientation(rng, planar);
+    const Vector3 position = 2.1 * cell + test::drawVector3(rng, jitter, planar);
+    test::placeBody(scene.model, q, i, position, orientation);
   }
   Data data(scene.model);
   forwardKinematics(scene.model, data, q);
@@ -98,9 +98,10 @@ TEST(Broadphase, LargeShapesAgainstParticles) {
   ASSERT_EQ(grid.path, DetectionPath::Analytic) << grid.path_reason;
   std::uniform_real_distribution<double> position(0.0, 10.0), height(0.3, 3.0);
   VectorX q = model.neutralConfiguration();
-  for (int i = 0; i < count; ++i)
-    test::placeBody(model, q, i, Vector3(position(rng), position(rng), height(rng)),
-                    Quaternion::Identity());
+  for (int i = 0; i < count; ++i) {
+    const double z = height(rng), y = position(rng), x = position(rng);  // GCC's order
+    test::placeBody(model, q, i, Vector3(x, y, z), Quaternion::Identity());
+  }
   Data data(model);
   forwardKinematics(model, data, q);
   ContactData cd_grid(model, grid), cd_tree(model, tree);

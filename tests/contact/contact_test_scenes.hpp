@@ -6,6 +6,7 @@
 #include "contact/detection.hpp"
 #include "framework/kinematics.hpp"
 #include "models/rigid_bodies.hpp"
+#include "random_draws.hpp"
 
 namespace sweep::test {
 
@@ -58,7 +59,8 @@ inline Quaternion randomOrientation(std::mt19937& rng, bool planar) {
     const double angle = std::uniform_real_distribution<double>(-M_PI, M_PI)(rng);
     return Quaternion(Eigen::AngleAxisd(angle, Vector3::UnitZ()));
   }
-  Quaternion r(normal(rng), normal(rng), normal(rng), normal(rng));
+  const double z = normal(rng), y = normal(rng), x = normal(rng), w = normal(rng);
+  Quaternion r(w, x, y, z);
   return r.normalized();
 }
 

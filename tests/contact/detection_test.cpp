@@ -258,7 +258,7 @@ TEST(Detection, Deterministic) {
     std::uniform_real_distribution<double> u(0.0, 6.0);
     VectorX q = scene.model.neutralConfiguration();
     for (int i = 0; i < 200; ++i)
-      test::placeBody(scene.model, q, i, Vector3(u(rng), u(rng), u(rng)), Quaternion::Identity());
+      test::placeBody(scene.model, q, i, test::drawVector3(rng, u), Quaternion::Identity());
     Data data(scene.model);
     forwardKinematics(scene.model, data, q);
     ContactData first(scene.model, cmodel), second(scene.model, cmodel);

@@ -41,9 +41,9 @@ TEST_P(AnalyticVsFcl, SameContacts) {
   int separated = 0, touching = 0, overlapping = 0;
   VectorX q = scene.model.neutralConfiguration();
   for (int trial = 0; trial < 3000; ++trial) {
-    test::placeBody(scene.model, q, 0, Vector3(box(rng), box(rng), planar ? 0.0 : box(rng)),
-                    test::randomOrientation(rng, planar));
-    Vector3 center(box(rng), box(rng), planar ? 0.0 : box(rng));
+    const Quaternion orientation = test::randomOrientation(rng, planar);
+    test::placeBody(scene.model, q, 0, test::drawVector3(rng, box, planar), orientation);
+    Vector3 center = test::drawVector3(rng, box, planar);
     test::placeBody(scene.model, q, 1, center, Quaternion::Identity());
     forwardKinematics(scene.model, data, q);
     detectContacts(scene.model, data, analytic, cd_analytic, 0.0, margin);
@@ -105,11 +105,11 @@ TEST(HalfSpaceVsFcl, BallGapNormalAndPoints) {
   int separated = 0, overlapping = 0;
   for (int trial = 0; trial < 2000; ++trial) {
     const bool planar = trial % 2 == 0;  // disk against half-plane: normal in the plane
-    Vector3 outward(unit(rng), unit(rng), planar ? 0.0 : unit(rng));
+    Vector3 outward = test::drawVector3(rng, unit, planar);
     outward.normalize();
-    const Vector3 origin(unit(rng), unit(rng), planar ? 0.0 : unit(rng));
+    const Vector3 origin = test::drawVector3(rng, unit, planar);
     const double radius = 0.2 + 0.3 * (unit(rng) + 1.0);
-    const Vector3 center(unit(rng), unit(rng), planar ? 0.0 : unit(rng));
+    const Vector3 center = test::drawVector3(rng, unit, planar);
     const ContactPoint c = halfSpaceBall(origin, outward, center, radius);
     const double tol = 1e-9 * radius;
 

@@ -15,7 +15,9 @@ void randomProblem(std::mt19937& rng, Matrix3& W, Vector3& q, double& mu) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) A(i, j) = u(rng);
   W = A * A.transpose() + 0.3 * Matrix3::Identity();
-  q = Vector3(u(rng), u(rng), u(rng));
+  // drawn last entry first, in sequence (a constructor's arguments have no order)
+  const double q2 = u(rng), q1 = u(rng), q0 = u(rng);
+  q = Vector3(q0, q1, q2);
   mu = 0.1 + 0.9 * (u(rng) + 1.0);
 }
 

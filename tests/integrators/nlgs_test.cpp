@@ -15,6 +15,7 @@
 #include "models/powder_bed.hpp"
 #include "models/rigid_bodies.hpp"
 #include "models/scene_spec.hpp"
+#include "random_draws.hpp"
 #include "solver_fixtures.hpp"
 
 namespace sweep {
@@ -694,8 +695,9 @@ TEST(PackedRows3d, CompactSphereRowsStandForTheSameRows) {
   }
   // velocity changes of an impulse, and the rolling coupling the sweeps use
   for (int c = 0; c < compact.size(); ++c) {
-    const Vector3 dP(unit(rng), unit(rng), unit(rng));
-    const Vector2 dR(unit(rng), unit(rng));
+    const Vector3 dP = test::drawVector3(rng, unit);
+    const double dR1 = unit(rng), dR0 = unit(rng);
+    const Vector2 dR(dR0, dR1);
     VectorX v_bodies = VectorX::Zero(scene.model.nv), v_compact = v_bodies, v_packed = v_bodies;
     bodies.applyImpulse(c, dP, v_bodies);
     bodies.applyRolling(c, dR, v_bodies);
