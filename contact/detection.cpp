@@ -238,8 +238,8 @@ Vector3 imageShift(const Periodicity& periodic, int image) {
   return shift;
 }
 
-void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata,
-                    const DetectionMargins& margins) {
+void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const DetectionMargins& margins,
+                    int threads) {
   const double margin = margins.balls;  // the grid holds balls only
   const int n = static_cast<int>(cdata.particles.size());
   double largest = 0.0;
@@ -270,7 +270,7 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata,
   }
   cdata.grid.build(cdata.particle_center, cdata.particle_radius, reach, cmodel.dimension);
   const std::size_t first = cdata.pairs.size();
-  cdata.grid.findPairs(margin, cdata.pairs);
+  cdata.grid.findPairs(margin, cdata.pairs, threads, &cdata.run_pairs);
   std::size_t kept = first;
   for (std::size_t k = first; k < cdata.pairs.size(); ++k) {
     int i = cdata.pairs[k].first, j = cdata.pairs[k].second;
@@ -472,7 +472,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
 
   // broadphase
   if (cmodel.path == DetectionPath::Analytic)
-    broadphaseGrid(cmodel, cdata, margins);
+    broadphaseGrid(cmodel, cdata, margins, threads);
   else
     broadphaseFcl(cmodel, cdata, margins);
   sortPairs(cmodel.size(), cdata);

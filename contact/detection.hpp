@@ -43,7 +43,8 @@ struct ContactData {
   std::vector<std::pair<int, int>> sorted_pairs;
   std::vector<int> pair_start;
   std::vector<ContactPoint> points;
-  // threaded narrowphase: each thread's contacts and scratch points
+  // threaded broadphase and narrowphase: each thread's pairs, contacts and scratch points
+  std::vector<std::vector<std::pair<int, int>>> run_pairs;
   std::vector<std::vector<Contact>> run_contacts;
   std::vector<std::vector<ContactPoint>> run_points;
   std::vector<int> particles;  // grid path: geometries binned in the grid

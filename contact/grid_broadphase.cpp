@@ -81,15 +81,36 @@ void GridBroadphase::build(const std::vector<Vector3>& centers, const std::vecto
   }
 }
 
-void GridBroadphase::findPairs(double margin, std::vector<std::pair<int, int>>& pairs) const {
-  if (dense_)
-    findPairsDense(margin, pairs);
-  else
-    findPairsHashed(margin, pairs);
+void GridBroadphase::findPairs(double margin, std::vector<std::pair<int, int>>& pairs, int threads,
+                               std::vector<std::vector<std::pair<int, int>>>* runs) const {
+  const int n = static_cast<int>(sorted_.size());
+  // a particle's scan costs about 50 ns: fewer than kParallelParticles per thread stay on one
+  constexpr int kParallelParticles = 4096;
+  const int count = runs == nullptr ? 1 : std::max(1, std::min(threads, n / kParallelParticles));
+  if (count == 1) {
+    if (dense_)
+      findPairsDense(margin, 0, n, pairs);
+    else
+      findPairsHashed(margin, 0, n, pairs);
+    return;
+  }
+  if (runs->size() < static_cast<std::size_t>(count)) runs->resize(count);
+#pragma omp parallel for schedule(static, 1) num_threads(count)
+  for (int r = 0; r < count; ++r) {
+    std::vector<std::pair<int, int>>& out = (*runs)[r];
+    out.clear();
+    const int begin = static_cast<int>(static_cast<long>(n) * r / count);
+    const int end = static_cast<int>(static_cast<long>(n) * (r + 1) / count);
+    if (dense_)
+      findPairsDense(margin, begin, end, out);
+    else
+      findPairsHashed(margin, begin, end, out);
+  }
+  for (int r = 0; r < count; ++r) pairs.insert(pairs.end(), (*runs)[r].begin(), (*runs)[r].end());
 }
 
-void GridBroadphase::findPairsDense(double margin, std::vector<std::pair<int, int>>& pairs) const {
-  const int n = static_cast<int>(sorted_.size());
+void GridBroadphase::findPairsDense(double margin, int first, int last,
+                                    std::vector<std::pair<int, int>>& pairs) const {
   auto scan = [&](int k, int begin, int end) {
     const Vector3& ck = sorted_center_[k];
     const double rk = sorted_radius_[k] + margin;
@@ -102,7 +123,7 @@ void GridBroadphase::findPairsDense(double margin, std::vector<std::pair<int, in
     }
   };
   const std::int64_t nx = extent_.x(), ny = extent_.y(), nz = extent_.z();
-  for (int k = 0; k < n; ++k) {
+  for (int k = first; k < last; ++k) {
     const Cell& c = particle_cell_[sorted_[k]];
     const std::int64_t x0 = std::max<std::int64_t>(c.x() - 1, 0);
     const std::int64_t x1 = std::min<std::int64_t>(c.x() + 1, nx - 1);
@@ -119,10 +140,10 @@ void GridBroadphase::findPairsDense(double margin, std::vector<std::pair<int, in
   }
 }
 
-void GridBroadphase::findPairsHashed(double margin, std::vector<std::pair<int, int>>& pairs) const {
-  const int n = static_cast<int>(sorted_.size());
+void GridBroadphase::findPairsHashed(double margin, int begin, int end,
+                                     std::vector<std::pair<int, int>>& pairs) const {
   const int dz = dimension_ == 3 ? 1 : 0;
-  for (int k = 0; k < n; ++k) {
+  for (int k = begin; k < end; ++k) {
     const int i = sorted_[k];
     const Cell& ci = particle_cell_[i];
     const Vector3& center = sorted_center_[k];

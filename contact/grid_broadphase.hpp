@@ -19,8 +19,11 @@ class GridBroadphase {
   void build(const std::vector<Vector3>& centers, const std::vector<double>& radii, double reach,
              int dimension);
 
-  // Pairs (i < j) of particles with |c_i - c_j| < r_i + r_j + margin; appended.
-  void findPairs(double margin, std::vector<std::pair<int, int>>& pairs) const;
+  // Pairs (i < j) of particles with |c_i - c_j| < r_i + r_j + margin; appended. On up to
+  // `threads` threads, each scanning a run of the binned particles into its own list of
+  // `runs`, the lists joined in order: the same pairs in the same order for every count.
+  void findPairs(double margin, std::vector<std::pair<int, int>>& pairs, int threads = 1,
+                 std::vector<std::vector<std::pair<int, int>>>* runs = nullptr) const;
 
   // Calls visit(i) once for every particle whose cell meets the box [lo, hi] grown by one
   // cell.
@@ -36,8 +39,11 @@ class GridBroadphase {
   std::size_t denseSlot(const Cell& c) const {
     return static_cast<std::size_t>(c.x() + extent_.x() * (c.y() + extent_.y() * c.z()));
   }
-  void findPairsDense(double margin, std::vector<std::pair<int, int>>& pairs) const;
-  void findPairsHashed(double margin, std::vector<std::pair<int, int>>& pairs) const;
+  // the pairs found from the binned particles [begin, end)
+  void findPairsDense(double margin, int first, int last,
+                      std::vector<std::pair<int, int>>& pairs) const;
+  void findPairsHashed(double margin, int begin, int end,
+                       std::vector<std::pair<int, int>>& pairs) const;
 
   int dimension_ = 3;
   bool dense_ = true;
