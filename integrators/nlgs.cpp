@@ -716,16 +716,25 @@ class NncgMomentum {
     // (docs/powder_bed.md, "NNCG").
     if (beta > kNncgRestart) beta = 0.0;
     previous_change2_ = change2;
-    int slot = 0;
+    // element by element: any split between threads gives the same bits
+    int width = 0;
+    for (int a = 0; a < array_count_; ++a) width += arrays_[a].width;
+    const int threads = n_ >= kParallelMomentum ? threads_ : 1;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
     for (int k = 0; k < n_; ++k) {
+      int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
         double* x = arrays_[a].data + ws_.order[k] * arrays_[a].width;
         for (int j = 0; j < arrays_[a].width; ++j, ++slot)
           advance(beta, x[j], ws_.impulse_before[slot], ws_.impulse_direction[slot]);
       }
     }
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
     for (int i = 0; i < dofs_; ++i)
       advance(beta, v[ws_.island_dofs[i]], ws_.v_before[i], ws_.v_direction[i]);
+  }
+  void setThreads(int threads) {
+    threads_ = threads;
   }
 
  private:
@@ -737,8 +746,11 @@ class NncgMomentum {
     before = x;
   }
 
+  // rows below which the momentum step stays on one thread
+  static constexpr int kParallelMomentum = 4096;
   NlgsWorkspace& ws_;
   int n_;
+  int threads_ = 1;
   ImpulseArray arrays_[3];
   int array_count_ = 0;
   int dofs_ = 0;
@@ -758,8 +770,10 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
                         ws.row_colour.size() >= static_cast<std::size_t>(n);
   if (coloured) colourIsland(p, ws, n);
   std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg)
+  if (settings.acceleration == NlgsAcceleration::Nncg) {
     momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n);
+    momentum->setThreads(coloured ? settings.threads : 1);
+  }
   const PackedRows3d rows3d(p);
   // one chunk of a coloured sweep, its sums kept apart
   const auto sweepChunk = [&](int chunk) {
