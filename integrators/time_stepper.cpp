@@ -254,13 +254,19 @@ void TimeStepper::freeVelocity() {
 }
 
 namespace {
+// Loops over bodies or contacts whose items write only their own entries go on threads from
+// this many items: any split gives the same bits.
+constexpr long kParallelItems = 8192;
+
 // World twist (angular velocity, velocity of the origin) of each root body at v, from the
 // motion subspaces of data (body frame, as the Jacobian's columns); bodies with a parent are
 // left as they are and never read.
 void rootBodyTwists(const Model& model, const Data& data, const VectorX& v,
-                    std::vector<Vector6>& twists) {
+                    std::vector<Vector6>& twists, int threads) {
   twists.resize(model.bodies.size());
-  for (std::size_t b = 0; b < model.bodies.size(); ++b) {
+  const long bodies = static_cast<long>(model.bodies.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (bodies >= kParallelItems)
+  for (long b = 0; b < bodies; ++b) {
     if (model.bodies[b].parent >= 0) continue;
     const Vector6 local = data.motion_subspace[b].apply(v.data() + model.bodies[b].v_index);
     const Matrix3& R = data.world_pose[b].rotation;
@@ -360,9 +366,10 @@ void TimeStepper::assemble() {
   // Candidates between free bodies (and walls, driven bodies) are judged from their bodies'
   // twists, and the ones left out get no Jacobian rows: on the 35 000-sphere bed the rows of
   // half a million candidates cost a quarter of the step, in memory traffic alone.
-  rootBodyTwists(model_, data_, v_, start_twist_);
-  rootBodyTwists(model_, data_, v_free_, free_twist_);
-  rootBodyTwists(model_, data_, v_predicted_, end_twist_);
+  const int threads = settings_.threadCount();
+  rootBodyTwists(model_, data_, v_, start_twist_, threads);
+  rootBodyTwists(model_, data_, v_free_, free_twist_, threads);
+  rootBodyTwists(model_, data_, v_predicted_, end_twist_, threads);
   auto carriedImpulse = [&](const Contact& contact) {
     const int previous = contact.previous;
     return previous >= 0 && previous < static_cast<int>(previous_impulse_.size()) &&
@@ -373,6 +380,7 @@ void TimeStepper::assemble() {
     bias = normalBias(settings_.normal_law, contact.restitution, u_start, contact.gap, tau);
     return tau * (bias + factor * std::min({u_start, u_free, u_pushed, 0.0})) > slack;
   };
+#pragma omp parallel for schedule(static) num_threads(threads) if (m >= kParallelItems)
   for (int id = 0; id < m; ++id) {
     const Contact& contact = cdata_.contacts[id];
     if (settings_.normal_law == NormalLaw::Vel || contact.gap <= near || carriedImpulse(contact))
@@ -388,6 +396,7 @@ void TimeStepper::assemble() {
   assembleJacobian();
   // contacts with a link of a tree, from their Jacobian rows
   const ContactJacobian& J = cdata_.jacobian;
+#pragma omp parallel for schedule(static) num_threads(threads) if (m >= kParallelItems)
   for (int id = 0; id < m; ++id) {
     const Contact& contact = cdata_.contacts[id];
     if (betweenRoots(model_, contact)) continue;
@@ -481,16 +490,21 @@ int TimeStepper::admitViolators() {
   // round-off only: a contact let through would differ from the unscreened solve
   const double tau = 0.5 * settings_.h, slack = touchingGap(cmodel_);
   const double t_m = t_ + 0.5 * settings_.h;
-  rootBodyTwists(model_, data_, v_free_, end_twist_);
+  const int threads = settings_.threadCount();
+  rootBodyTwists(model_, data_, v_free_, end_twist_, threads);
   int admitted = 0;
-  for (int id = 0; id < static_cast<int>(deferred_.size()); ++id) {
+  bool stale = false;
+  const int m = static_cast<int>(deferred_.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (m >= kParallelItems) \
+    reduction(+ : admitted) reduction(|| : stale)
+  for (int id = 0; id < m; ++id) {
     if (!deferred_[id]) continue;
     if (unassembled_[id]) {
       std::array<double, 1> u_end;
       normalVelocitiesFromTwists<1>(model_, data_, cdata_.contacts[id], {&end_twist_}, t_m, u_end);
       if (tau * (u_end[0] + screening_bias_[id]) < -slack) {
         deferred_[id] = unassembled_[id] = 0;
-        jacobian_stale_ = true;  // its rows are built before the next solve
+        stale = true;  // its rows are built before the next solve
         ++admitted;
       }
       continue;
@@ -500,6 +514,7 @@ int TimeStepper::admitViolators() {
       ++admitted;
     }
   }
+  if (stale) jacobian_stale_ = true;
   return admitted;
 }
 

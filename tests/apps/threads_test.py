@@ -37,6 +37,15 @@ CASES = {
                       "--set", "generators[0].lattice_spacing=1.0", "--set", "time.end=0.001",
                       "--set", "scheme.coulomb.acceleration=nncg"],
                      8192),
+    # the same lattice a little apart, under IQS with candidate screening: the threaded
+    # screening loops over 10 000 candidates
+    "screened_funnel": ("examples/funnel/funnel.yaml",
+                        ["--set", "generators[0].count=10000", "--set",
+                         "generators[0].orifice=0.0359", "--set", "generators[0].radius_std=0",
+                         "--set", "generators[0].lattice_spacing=1.001", "--set",
+                         "time.end=0.001", "--set", "scheme.normal_law=iqs", "--set",
+                         "scheme.screening=true"],
+                        8192),
 }
 
 
