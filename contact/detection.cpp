@@ -367,8 +367,7 @@ void sortPairs(int geometries, ContactData& cdata) {
 }
 
 // The narrowphase of one pair: its contacts (gap < margin), appended to `out` in feature
-// order with their law; `points` is scratch. A pure function of the pair and the poses, so
-// that any split of the pairs between threads gives the same list.
+// order with their law; `points` is scratch.
 void narrowphasePair(const Model& model, const ContactModel& cmodel, const ContactData& cdata,
                      double t, const DetectionMargins& margins, const std::pair<int, int>& pair,
                      std::vector<Contact>& out, std::vector<ContactPoint>& points,
@@ -438,7 +437,8 @@ void narrowphasePair(const Model& model, const ContactModel& cmodel, const Conta
 }
 
 // Identity across steps and frames of the contacts [begin, end): both lists are sorted by key,
-// so the walk starts where the first key would go in the previous list.
+// so the walk starts where the first key would go in the previous list (a later range can
+// be matched on its own).
 int matchPrevious(ContactData& cdata, int dimension, std::size_t begin, std::size_t end) {
   if (begin == end) return 0;
   const auto byKey = [](const Contact& c, const ContactKey& key) { return c.key < key; };
@@ -457,16 +457,11 @@ int matchPrevious(ContactData& cdata, int dimension, std::size_t begin, std::siz
   return matched_count;
 }
 
-// Pairs per thread below which the narrowphase stays on one thread: a ball pair costs about
-// 20 ns, and a parallel region a few microseconds.
-constexpr std::size_t kParallelPairs = 2048;
-
 }  // namespace
 
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
                     ContactData& cdata, double t, const DetectionMargins& margins, int threads) {
   std::swap(cdata.contacts, cdata.previous);
-  cdata.contacts.clear();
   cdata.pairs.clear();
   updateGeometryPoses(model, data, cmodel, t, cdata);
 
@@ -478,56 +473,14 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
   sortPairs(cmodel.size(), cdata);
   cdata.stats = DetectionStats{};
 
-  // narrowphase, then identity across steps and frames. FCL's scene is not shared between
-  // threads; analytic pairs are cut into one run per thread, each into its own list, joined
-  // in order: the same list as one thread's.
-  const std::size_t pair_count = cdata.pairs.size();
-  const int runs =
-      cmodel.path == DetectionPath::Analytic
-          ? static_cast<int>(std::min<std::size_t>(
-                std::max(threads, 1), std::max<std::size_t>(1, pair_count / kParallelPairs)))
-          : 1;
-  if (runs == 1) {
-    for (const auto& pair : cdata.pairs)
-      narrowphasePair(model, cmodel, cdata, t, margins, pair, cdata.contacts, cdata.points,
-                      cdata.stats.broadphase_pairs);
-    cdata.stats.matched = matchPrevious(cdata, cmodel.dimension, 0, cdata.contacts.size());
-    cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
-    return;
-  }
-  if (cdata.run_contacts.size() < static_cast<std::size_t>(runs)) {
-    cdata.run_contacts.resize(runs);
-    cdata.run_points.resize(runs);
-  }
-  std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
-  std::vector<std::size_t> offset(runs + 1, 0);
-#pragma omp parallel num_threads(runs)
-  {
-#pragma omp for schedule(static, 1)
-    for (int r = 0; r < runs; ++r) {
-      std::vector<Contact>& out = cdata.run_contacts[r];
-      out.clear();
-      const std::size_t first = pair_count * r / runs, last = pair_count * (r + 1) / runs;
-      for (std::size_t k = first; k < last; ++k)
-        narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], out, cdata.run_points[r],
-                        broadphase_pairs[r]);
-    }
-#pragma omp single
-    {
-      for (int r = 0; r < runs; ++r) offset[r + 1] = offset[r] + cdata.run_contacts[r].size();
-      cdata.contacts.resize(offset[runs]);
-    }
-#pragma omp for schedule(static, 1)
-    for (int r = 0; r < runs; ++r) {
-      std::copy(cdata.run_contacts[r].begin(), cdata.run_contacts[r].end(),
-                cdata.contacts.begin() + offset[r]);
-      matched[r] = matchPrevious(cdata, cmodel.dimension, offset[r], offset[r + 1]);
-    }
-  }
-  for (int r = 0; r < runs; ++r) {
-    cdata.stats.broadphase_pairs += broadphase_pairs[r];
-    cdata.stats.matched += matched[r];
-  }
+  // narrowphase, then identity across steps and frames, on one thread: split between two
+  // threads (each run counted, then written in place) it took 0.57 s against 0.52 s over 30
+  // steps of the wide bed (200 000 contacts, 36 MB written a step): memory, not arithmetic
+  cdata.contacts.clear();
+  for (const auto& pair : cdata.pairs)
+    narrowphasePair(model, cmodel, cdata, t, margins, pair, cdata.contacts, cdata.points,
+                    cdata.stats.broadphase_pairs);
+  cdata.stats.matched = matchPrevious(cdata, cmodel.dimension, 0, cdata.contacts.size());
   cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
 }
 

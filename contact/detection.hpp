@@ -43,10 +43,8 @@ struct ContactData {
   std::vector<std::pair<int, int>> sorted_pairs;
   std::vector<int> pair_start;
   std::vector<ContactPoint> points;
-  // threaded broadphase and narrowphase: each thread's pairs, contacts and scratch points
+  // threaded broadphase: each thread's pairs
   std::vector<std::vector<std::pair<int, int>>> run_pairs;
-  std::vector<std::vector<Contact>> run_contacts;
-  std::vector<std::vector<ContactPoint>> run_points;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry
   // grid path: positions in `large` of the geometries with dofs, ascending. Two frozen shapes
@@ -95,8 +93,8 @@ DetectionMargins detectionMargins(const Model& model, const Data& data, const Co
                                   double h, double t);
 
 // Fills cdata.contacts with every pair of geometries closer than their margin, sorted by key,
-// with frames and contact laws, each matched to the previous detection's contacts. The
-// analytic narrowphase runs on up to `threads` threads; the list is the same for every count.
+// with frames and contact laws, each matched to the previous detection's contacts. The grid
+// broadphase runs on up to `threads` threads; the list is the same for every count.
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
                     ContactData& cdata, double t, const DetectionMargins& margins, int threads = 1);
 inline void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,

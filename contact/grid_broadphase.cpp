@@ -97,7 +97,10 @@ void GridBroadphase::findPairs(double margin, std::vector<std::pair<int, int>>& 
   if (runs->size() < static_cast<std::size_t>(count)) runs->resize(count);
 #pragma omp parallel for schedule(static, 1) num_threads(count)
   for (int r = 0; r < count; ++r) {
-    std::vector<std::pair<int, int>>& out = (*runs)[r];
+    // the list on this thread's stack while it fills it: the runs' vector headers share cache
+    // lines, which every append would bounce
+    std::vector<std::pair<int, int>> out;
+    out.swap((*runs)[r]);
     out.clear();
     const int begin = static_cast<int>(static_cast<long>(n) * r / count);
     const int end = static_cast<int>(static_cast<long>(n) * (r + 1) / count);
@@ -105,6 +108,7 @@ void GridBroadphase::findPairs(double margin, std::vector<std::pair<int, int>>& 
       findPairsDense(margin, begin, end, out);
     else
       findPairsHashed(margin, begin, end, out);
+    out.swap((*runs)[r]);
   }
   for (int r = 0; r < count; ++r) pairs.insert(pairs.end(), (*runs)[r].begin(), (*runs)[r].end());
 }
