@@ -83,7 +83,7 @@ void NlgsSettings::validate(const std::string& owner) const {
     throw InputError(owner + ".relaxation must be in (0, 2), got " + show(relaxation));
 }
 
-void NlgsWorkspace::prepare(int contacts, int nv) {
+void NlgsWorkspace::prepare(int contacts, int nv, int components) {
   y.resize(contacts);
   offset.resize(contacts);
   coupling.resize(contacts);
@@ -105,7 +105,8 @@ void NlgsWorkspace::prepare(int contacts, int nv) {
   chunk_change2.resize(chunks);
   chunk_size2.resize(chunks);
   chunk_failures.resize(chunks);
-  if (component_colours.size() < static_cast<std::size_t>(nv)) component_colours.assign(nv, 0);
+  const std::size_t colour_slots = std::max(nv, components);
+  if (component_colours.size() < colour_slots) component_colours.assign(colour_slots, 0);
   if (v_before.size() < nv) {
     v_before.resize(nv);
     v_direction.resize(nv);
@@ -135,9 +136,15 @@ void colourIsland(const ContactProblem& p, NlgsWorkspace& ws, int n) {
     const int first = block * kColourChunk, last = std::min(n, first + kColourChunk);
     std::uint64_t used = 0;
     bool wide = false;
+    const int slots = static_cast<int>(ws.component_colours.size());
     for (int k = first; k < last; ++k) {
       const std::array<int, 2>& moved = p.row_components[ws.order[k]];
-      if (moved[0] < 0) wide = true;
+      // a workspace prepared without the model's component count may not reach every one:
+      // such a block goes to the serial colour
+      if (moved[0] < 0 || moved[0] >= slots || moved[1] >= slots) {
+        wide = true;
+        continue;
+      }
       for (int comp : moved)
         if (comp >= 0) used |= ws.component_colours[comp];
     }
@@ -152,7 +159,8 @@ void colourIsland(const ContactProblem& p, NlgsWorkspace& ws, int n) {
   }
   for (int k = 0; k < n; ++k)  // the masks back to zero for the next island
     for (int comp : p.row_components[ws.order[k]])
-      if (comp >= 0) ws.component_colours[comp] = 0;
+      if (comp >= 0 && comp < static_cast<int>(ws.component_colours.size()))
+        ws.component_colours[comp] = 0;
   // the blocks colour after colour (in their order within one): chunk j is the j-th
   int chunk = 0, row = 0;
   for (int colour = 0; colour <= kColours; ++colour) {

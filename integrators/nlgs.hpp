@@ -83,7 +83,8 @@ struct NlgsStats {
 };
 
 struct NlgsWorkspace {
-  void prepare(int contacts, int nv = 0);
+  // components: the model's count (Model::components), for the coloured sweeps
+  void prepare(int contacts, int nv = 0, int components = 0);
   std::vector<int> order;
   std::mt19937 rng;
   std::vector<double> threshold;    // friction stage: mu lambda_N per contact

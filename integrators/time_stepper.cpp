@@ -417,7 +417,7 @@ void TimeStepper::assembleProblem() {
   const int n = problem_.size();
   stats_.active = n;
   stats_.islands = problem_.islandCount();
-  nlgs_ws_.prepare(n, model_.nv);
+  nlgs_ws_.prepare(n, model_.nv, static_cast<int>(model_.components.size()));
   // warm start from this step's last solve, or else the previous step's impulses of the same
   // contacts
   P_.assign(n, Vector3::Zero());
