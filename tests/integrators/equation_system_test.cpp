@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "contact/contact_model.hpp"
 #include "framework/error.hpp"
@@ -30,6 +31,15 @@ ContactModel planar() {
   return cmodel;
 }
 
+// A model of one system by its equations and its constraints by functions.
+Model systemModel(const std::string& name, const EquationSystem& system,
+                  const std::vector<ConstraintFunction>& constraints) {
+  ModelBuilder builder(name);
+  builder.addSystem(system);
+  for (const ConstraintFunction& c : constraints) builder.addConstraint(c);
+  return builder.build();
+}
+
 // A point mass m in the plane, q = (x, y), under gravity along -y.
 EquationSystem pointMass(const std::string& name, double m) {
   EquationSystem point;
@@ -54,10 +64,7 @@ Model pointMassOnFloor(double m, double mu, double e) {
   floor.tangent = [](const VectorX&) { return VectorX(Eigen::Vector2d(1.0, 0.0)); };
   floor.friction = mu;
   floor.restitution = e;
-  ModelBuilder builder("point mass");
-  builder.addSystem(mass);
-  builder.addConstraint(floor);
-  return builder.build();
+  return systemModel("point mass", mass, {floor});
 }
 
 class EquationSystems : public ::testing::TestWithParam<Scheme> {};
@@ -78,10 +85,7 @@ TEST_P(EquationSystems, KaneImpactThroughTheTimeStep) {
   wall.tangent = [](const VectorX&) { return VectorX(Eigen::Vector2d(0.9, std::sqrt(0.19))); };
   wall.friction = 0.5;
   wall.restitution = 1.0;
-  ModelBuilder builder("kane");
-  builder.addSystem(kane);
-  builder.addConstraint(wall);
-  const Model model = builder.build();
+  const Model model = systemModel("kane", kane, {wall});
   const ContactModel cmodel = planar();
   TimeStepper stepper(model, cmodel, settingsFor(GetParam(), 1e-3));
   const VectorX v_minus = Eigen::Vector2d(-1.0, -0.1 / std::sqrt(0.19));
@@ -197,10 +201,7 @@ TEST_P(EquationSystems, BilateralRodMakesAPendulum) {
   rod.bilateral = true;
   rod.gap = [L](const VectorX& q) { return q.norm() - L; };
   rod.normal = [](const VectorX& q) { return VectorX(q / q.norm()); };
-  ModelBuilder builder("pendulum by its equations");
-  builder.addSystem(point);
-  builder.addConstraint(rod);
-  const Model model = builder.build();
+  const Model model = systemModel("pendulum by its equations", point, {rod});
   const ContactModel cmodel = planar();
   TimeStepper stepper(model, cmodel, settingsFor(GetParam(), h));
   stepper.reset(0.0, Eigen::Vector2d(L * std::sin(angle), -L * std::cos(angle)), VectorX::Zero(2));
@@ -294,16 +295,15 @@ TEST_P(EquationSystems, DoublePendulumByItsEquationsMatchesTheTree) {
   pendulum.potential = [=](const VectorX& q) {
     return -m * kG * (2 * std::cos(q[0]) + std::cos(q[0] + q[1]));
   };
-  ModelBuilder equations("double pendulum by its equations");
-  equations.addSystem(pendulum);
+  std::vector<ConstraintFunction> bounds;
   for (const double side : {1.0, -1.0}) {
     ConstraintFunction bound;
     bound.name = side > 0 ? "elbow lower" : "elbow upper";
     bound.gap = [=](const VectorX& q) { return side * (q[1] + side * limit); };
     bound.normal = [=](const VectorX&) { return VectorX(Eigen::Vector2d(0.0, side)); };
-    equations.addConstraint(bound);
+    bounds.push_back(bound);
   }
-  const Model system = equations.build();
+  const Model system = systemModel("double pendulum by its equations", pendulum, bounds);
 
   const ContactModel cmodel = planar();
   TimeStepper from_tree(tree, cmodel, settingsFor(GetParam(), h));
@@ -363,10 +363,7 @@ TEST_P(EquationSystems, DiskOnInclineByItsEquationsMatchesTheBody) {
     return VectorX(Eigen::Vector3d(t.x(), t.y(), r_c.x() * t.y() - r_c.y() * t.x()));
   };
   contact.friction = mu;
-  ModelBuilder equations("disk by its equations");
-  equations.addSystem(disk);
-  equations.addConstraint(contact);
-  const Model system = equations.build();
+  const Model system = systemModel("disk by its equations", disk, {contact});
   const ContactModel none = planar();
 
   TimeStepper from_body(body, cmodel, settingsFor(GetParam(), h));
