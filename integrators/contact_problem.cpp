@@ -1,5 +1,6 @@
 #include "integrators/contact_problem.hpp"
 
+#include <omp.h>
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -201,9 +202,6 @@ void ContactProblem::pack3d() {
   }
 }
 
-namespace {
-
-// The per-body part of rowInBodyForm, computed once: Data's constant inverses do not change.
 // A sphere particle also has one inverse inertia about every axis and only spheres centred
 // on its origin (PackedSphere3d).
 void findFreeParticles(const Model& model, const Data& data, const ContactModel& cmodel,
@@ -234,8 +232,6 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
       ws.sphere_particles[b] = {body.v_index, body.component, inverse[0], inverse[3]};
   }
 }
-
-}  // namespace
 
 bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmodel,
                    const Contact& contact, ContactProblemWorkspace& workspace) {
@@ -276,48 +272,82 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                             const ContactData& cdata, double t, NormalLaw law, double tau,
                             const VectorX& q_m, const VectorX& v_start, ContactProblem& p,
                             ContactProblemWorkspace& ws, const VectorX* v_free,
-                            const std::vector<char>* deferred) {
+                            const std::vector<char>* deferred, int threads) {
   const ContactJacobian& J = cdata.jacobian;
   p.dimension = cmodel.dimension;
-  p.contact.clear();
-  p.begin.assign(1, 0);
-  p.minv_begin.assign(1, 0);
-  p.dof.clear();
-  p.h.clear();
-  p.minv_dof.clear();
-  p.minv_h.clear();
-  p.h_inverse_mass.clear();
-  p.diagonal.clear();
-  p.row_body_form.clear();
-  p.bodies3d.clear();
-  p.row_sphere.clear();
-  p.spheres3d.clear();
-  p.direct_body_forms = 0;
-  p.delassus.clear();
-  p.delassus_inverse.clear();
-  p.normal_compliance_inverse.clear();
-  p.known.clear();
-  p.gap.clear();
-  p.friction.clear();
-  p.restitution.clear();
-  p.velocity_start.clear();
-  p.normal_bias.clear();
-  p.bilateral.clear();
   p.rolling = J.rolling;
-  p.rolling_h.clear();
-  p.rolling_minv_h.clear();
-  p.rolling_known.clear();
-  p.rolling_delassus.clear();
-  p.rolling_bound.clear();
+  p.bilateral.clear();
   const int rhs_columns = p.rolling ? 5 : 3;
-  ws.row_component.clear();
-  p.row_components.clear();
+  if (p.dimension == 3) findFreeParticles(model, data, cmodel, ws);  // before threads read it
+
+  // Per-row and per-entry arrays are sized once the rows are counted, and every element is
+  // then written (rows on several threads, each at its own place): nothing is cleared.
+  auto sizeRows = [&](int rows) {
+    p.contact.resize(rows);
+    p.begin.resize(rows + 1);
+    p.minv_begin.resize(rows + 1);
+    p.begin[0] = p.minv_begin[0] = 0;
+    p.diagonal.resize(rows);
+    p.row_body_form.resize(rows);
+    p.row_sphere.resize(rows);
+    p.delassus.resize(rows);
+    p.delassus_inverse.resize(rows);
+    p.normal_compliance_inverse.resize(rows);
+    p.known.resize(rows);
+    p.gap.resize(rows);
+    p.friction.resize(rows);
+    p.restitution.resize(rows);
+    p.velocity_start.resize(rows);
+    p.normal_bias.resize(rows);
+    p.row_components.resize(rows);
+    ws.row_component.resize(rows);
+    const int rolling_rows = p.rolling ? rows : 0;
+    p.rolling_known.resize(rolling_rows);
+    p.rolling_delassus.resize(rolling_rows);
+    p.rolling_bound.resize(rolling_rows);
+  };
+  auto sizeEntries = [&](int entries, int minv_entries) {
+    p.dof.resize(entries);
+    p.h.resize(entries);
+    p.h_inverse_mass.resize(entries);
+    p.rolling_h.resize(p.rolling ? entries : 0);
+    p.minv_dof.resize(minv_entries);
+    p.minv_h.resize(minv_entries);
+    p.rolling_minv_h.resize(p.rolling ? minv_entries : 0);
+  };
+  // islands: union-find over the components, a row's components joined
   for (std::size_t i = 0; i < ws.component_parent.size(); ++i)
     ws.component_parent[i] = static_cast<int>(i);
   auto root = [&](int c) {
     while (ws.component_parent[c] != c)
       c = ws.component_parent[c] = ws.component_parent[ws.component_parent[c]];
     return c;
+  };
+  auto joinComponents = [&](const std::vector<int>& touched) {
+    for (int comp : touched) {
+      const int a = root(touched.front()), b = root(comp);
+      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+    }
+  };
+  // The components that entries [first, first + count) of dofs move, in order of first
+  // appearance, into touched; returns whether every entry's dof has a diagonal constant
+  // inverse mass (> 0 exactly there), the case where M^-1 H is H scaled.
+  auto entryComponents = [&](const int* dofs, int count, std::vector<int>& touched) {
+    touched.clear();
+    bool diagonal_row = true;
+    for (int k = 0; k < count; ++k) {
+      diagonal_row = diagonal_row && data.constant_inverse_diagonal[dofs[k]] > 0.0;
+      const int comp = ws.dof_component[dofs[k]];
+      if (std::find(touched.begin(), touched.end(), comp) == touched.end()) touched.push_back(comp);
+    }
+    return diagonal_row;
+  };
+  // how many M^-1 H entries a general row over these components stores
+  auto minvEntries = [&](const std::vector<int>& touched) {
+    int count = 0;
+    for (int comp : touched)
+      count += data.has_constant_inverse6[comp] ? 6 : model.components[comp].nv;
+    return count;
   };
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
@@ -345,31 +375,27 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       for (int j = 0; j < 2; ++j) W_r(i, j) = w_r[i][j];
   };
 
-  // the rest of a row once its W_cc and W_r are known: islands, inverse, velocities and bias
-  // (ws.touched holds the components of the row)
+  // the rest of row pc once its W_cc and W_r are known: its components, inverse, velocities
+  // and bias (touched holds the components of the row; islands are joined afterwards)
   // diagonal_W: W is diagonal by construction (PackedSphere3d), and so is its inverse
-  auto finishRowTail = [&](int pc, Matrix3 W, Matrix2 W_r, const Vector3& known, double gap,
-                           double mu, double e, const Vector2& known_spin, double rolling_bound,
+  auto finishRowTail = [&](int pc, const std::vector<int>& touched, Matrix3 W, Matrix2 W_r,
+                           const Vector3& known, double gap, double mu, double e,
+                           const Vector2& known_spin, double rolling_bound,
                            bool diagonal_W = false) {
-    // islands: the components of one row are joined
-    ws.row_component.push_back(ws.touched.front());
-    std::array<int, 2> moved{ws.touched.front(), -1};
-    for (int comp : ws.touched) {
+    ws.row_component[pc] = touched.front();
+    std::array<int, 2> moved{touched.front(), -1};
+    for (int comp : touched) {
       if (comp == moved[0] || comp == moved[1]) continue;
       moved = moved[1] < 0 ? std::array<int, 2>{moved[0], comp} : std::array<int, 2>{-2, -2};
       if (moved[0] == -2) break;
     }
-    p.row_components.push_back(moved);
-    for (int comp : ws.touched) {
-      const int a = root(ws.touched.front()), b = root(comp);
-      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
-    }
+    p.row_components[pc] = moved;
 
     if (p.dimension == 2) {
       W.row(2).setZero();
       W.col(2).setZero();
     }
-    p.delassus.push_back(W);
+    p.delassus[pc] = W;
     // a row without friction (mu = 0, or no tangential motion at all, as a joint limit)
     // is solved on its normal alone: its tangential block may be singular
     const double W_TT = p.dimension == 2 ? W(1, 1) : W(1, 1) + W(2, 2);
@@ -383,54 +409,45 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       W_inverse.topLeftCorner<2, 2>() = W.topLeftCorner<2, 2>().inverse();
     else
       W_inverse = W.inverse();
-    p.delassus_inverse.push_back(W_inverse);
-    p.normal_compliance_inverse.push_back(1.0 / W(0, 0));
-    p.known.push_back(known);
-    p.gap.push_back(gap);
-    p.friction.push_back(mu);
-    p.restitution.push_back(e);
+    p.delassus_inverse[pc] = W_inverse;
+    p.normal_compliance_inverse[pc] = 1.0 / W(0, 0);
+    p.known[pc] = known;
+    p.gap[pc] = gap;
+    p.friction[pc] = mu;
+    p.restitution[pc] = e;
     const Vector3 u_start = p.localVelocity(pc, v_start);
-    p.velocity_start.push_back(u_start);
-    p.normal_bias.push_back(normalBias(law, e, u_start.x(), gap, tau));
+    p.velocity_start[pc] = u_start;
+    p.normal_bias[pc] = normalBias(law, e, u_start.x(), gap, tau);
     if (p.rolling) {
       if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
       // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row
       if (!(W_r(0, 0) > 0.0 && W_r(1, 1) > 0.0)) rolling_bound = 0.0;
-      p.rolling_delassus.push_back(W_r);
-      p.rolling_known.push_back(known_spin);
-      p.rolling_bound.push_back(rolling_bound);
+      p.rolling_delassus[pc] = W_r;
+      p.rolling_known[pc] = known_spin;
+      p.rolling_bound[pc] = rolling_bound;
     }
   };
 
-  // one row block: H entries already pushed; computes M^-1 H, W_cc, then the rest
-  auto finishRow = [&](const Vector3& known, double gap, double mu, double e,
-                       const Vector2& known_spin, double rolling_bound) {
-    const int pc = static_cast<int>(p.begin.size()) - 1;
-    p.row_body_form.push_back(-1);
-    p.row_sphere.push_back(-1);
-    p.begin.push_back(static_cast<int>(p.dof.size()));
-    // M^-1 H_c, component by component (a contact touches at most two)
-    ws.touched.clear();
-    bool diagonal_row = true;
-    for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-      // > 0 exactly where the component's constant inverse is diagonal
-      diagonal_row = diagonal_row && data.constant_inverse_diagonal[p.dof[k]] > 0.0;
-      const int comp = ws.dof_component[p.dof[k]];
-      if (std::find(ws.touched.begin(), ws.touched.end(), comp) != ws.touched.end()) continue;
-      ws.touched.push_back(comp);
-    }
-    p.diagonal.push_back(diagonal_row ? 1 : 0);
+  // Row pc from its H entries (written at [begin[pc], begin[pc + 1])): M^-1 H at
+  // [minv_begin[pc], minv_begin[pc + 1]) unless the row is diagonal, W_cc, then the rest.
+  // A general row uses the per-component and per-dof scratch of ws: one thread only.
+  auto finishEntryRow = [&](int pc, const std::vector<int>& touched, bool diagonal_row,
+                            const Vector3& known, double gap, double mu, double e,
+                            const Vector2& known_spin, double rolling_bound) {
+    p.row_body_form[pc] = -1;
+    p.row_sphere[pc] = -1;
+    p.diagonal[pc] = diagonal_row ? 1 : 0;
     Matrix3 W = Matrix3::Zero();
     Matrix2 W_r = Matrix2::Zero();
     if (diagonal_row) {
       // M^-1 H is H scaled entry by entry: no M^-1 H entries are stored (h_inverse_mass)
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k)
-        p.h_inverse_mass.push_back(data.constant_inverse_diagonal[p.dof[k]]);
+        p.h_inverse_mass[k] = data.constant_inverse_diagonal[p.dof[k]];
       diagonalDelassus(pc, W, W_r);
-      p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
     } else {
-      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) p.h_inverse_mass.push_back(0.0);
-      for (int comp : ws.touched) {
+      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) p.h_inverse_mass[k] = 0.0;
+      int slot = p.minv_begin[pc];
+      for (int comp : touched) {
         const Component& component = model.components[comp];
         if (data.has_constant_inverse6[comp]) {
           // a free body in a row with a tree, or off its principal axes: fixed-size work
@@ -446,10 +463,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
             solved = data.constant_inverse6[comp].diagonal().asDiagonal() * rhs;
           else
             solved.noalias() = data.constant_inverse6[comp] * rhs;
-          for (int i = 0; i < 6; ++i) {
-            p.minv_dof.push_back(component.v_index + i);
-            p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
-            if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
+          for (int i = 0; i < 6; ++i, ++slot) {
+            p.minv_dof[slot] = component.v_index + i;
+            p.minv_h[slot] = Vector3(solved(i, 0), solved(i, 1), solved(i, 2));
+            if (p.rolling) p.rolling_minv_h[slot] = Vector2(solved(i, 3), solved(i, 4));
           }
           continue;
         }
@@ -462,13 +479,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
           if (p.rolling) solved.row(i).tail<2>() = p.rolling_h[k].transpose();
         }
         data.mass_factors[comp].solveInPlace(solved);
-        for (int i = 0; i < component.nv; ++i) {
-          p.minv_dof.push_back(component.v_index + i);
-          p.minv_h.emplace_back(solved(i, 0), solved(i, 1), solved(i, 2));
-          if (p.rolling) p.rolling_minv_h.emplace_back(solved(i, 3), solved(i, 4));
+        for (int i = 0; i < component.nv; ++i, ++slot) {
+          p.minv_dof[slot] = component.v_index + i;
+          p.minv_h[slot] = Vector3(solved(i, 0), solved(i, 1), solved(i, 2));
+          if (p.rolling) p.rolling_minv_h[slot] = Vector2(solved(i, 3), solved(i, 4));
         }
       }
-      p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
       // W_cc = H_c^T M^-1 H_c
       for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = m;
       for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
@@ -480,7 +496,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
         ws.minv_slot[p.minv_dof[m]] = -1;
     }
-    finishRowTail(pc, W, W_r, known, gap, mu, e, known_spin, rolling_bound);
+    finishRowTail(pc, touched, W, W_r, known, gap, mu, e, known_spin, rolling_bound);
   };
 
   // The two sides of a contact written from its frame and points: a driven side adds its
@@ -504,27 +520,23 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   // assembleContactJacobian, W_cc and W_r over the entries the record stands for in their
   // order, so the row has the bits of one assembled from entries and packed by pack3d. On a
   // powder bed this skips three copies of every row (Jacobian, H entries, packing).
-  auto bodyFormRow = [&](const Contact& contact) {
-    const int pc = static_cast<int>(p.begin.size()) - 1;
-    p.begin.push_back(static_cast<int>(p.dof.size()));
-    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
-    p.diagonal.push_back(1);
+  auto bodyFormRow = [&](int pc, const Contact& contact, std::vector<int>& touched) {
+    p.diagonal[pc] = 1;
+    p.row_sphere[pc] = -1;
     // filled in place: a record is six cache lines, and a copy of it cost as much as the fill
-    p.row_body_form.push_back(static_cast<int>(p.bodies3d.size()));
-    p.row_sphere.push_back(-1);
-    ContactProblem::PackedBodies3d& b = p.bodies3d.emplace_back();
-    p.direct_body_forms = static_cast<int>(p.bodies3d.size());
+    ContactProblem::PackedBodies3d& b = p.bodies3d[p.row_body_form[pc]];
+    b = ContactProblem::PackedBodies3d{};
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
     const Vector3& roll1 = contact.tangent1;
     const Vector3& roll2 = contact.tangent2;
-    ws.touched.clear();
+    touched.clear();
     forEachSide(contact, known, spin, [&](int index, const Vector3& point, double sign) {
       const Body& body = model.bodies[index];
       const Pose& pose = data.world_pose[index];
       const Vector3 lever = point - pose.translation;
-      const bool first = ws.touched.empty();
-      ws.touched.push_back(body.component);
+      const bool first = touched.empty();
+      touched.push_back(body.component);
       const double* inverse = data.constant_inverse_diagonal.data() + body.v_index;
       // block b's linear coefficients are block a's negated: not stored
       if (first) {
@@ -560,28 +572,25 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     Matrix3 W;
     Matrix2 W_r;
     diagonalDelassus(pc, W, W_r);  // as for the same row in entry form
-    finishRowTail(pc, W, W_r, known, contact.gap, contact.friction, contact.restitution, spin,
-                  contact.rolling);
+    finishRowTail(pc, touched, W, W_r, known, contact.gap, contact.friction, contact.restitution,
+                  spin, contact.rolling);
   };
 
   // A row over spheres in compact form (ContactProblem::PackedSphere3d): the frame, each
   // side's signed lever along the normal and its axes R^T t1, R^T t2, written in place.
-  auto sphereRow = [&](const Contact& contact) {
-    const int pc = static_cast<int>(p.begin.size()) - 1;
-    p.begin.push_back(static_cast<int>(p.dof.size()));
-    p.minv_begin.push_back(static_cast<int>(p.minv_dof.size()));
-    p.diagonal.push_back(1);
-    p.row_body_form.push_back(-1);
-    p.row_sphere.push_back(static_cast<int>(p.spheres3d.size()));
-    ContactProblem::PackedSphere3d& s = p.spheres3d.emplace_back();
+  auto sphereRow = [&](int pc, const Contact& contact, std::vector<int>& touched) {
+    p.diagonal[pc] = 1;
+    p.row_body_form[pc] = -1;
+    ContactProblem::PackedSphere3d& s = p.spheres3d[p.row_sphere[pc]];
+    s = ContactProblem::PackedSphere3d{};
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
-    ws.touched.clear();
+    touched.clear();
     forEachSide(contact, known, spin, [&](int index, const Vector3& point, double sign) {
       const ContactProblemWorkspace::SphereParticle& body = ws.sphere_particles[index];
       const Pose& pose = data.world_pose[index];
-      const bool first = ws.touched.empty();
-      ws.touched.push_back(body.component);
+      const bool first = touched.empty();
+      touched.push_back(body.component);
       const double lever = (point - pose.translation).dot(contact.normal);
       const Vector3 axis1 = sign * (pose.rotation.transpose() * contact.tangent1);
       const Vector3 axis2 = sign * (pose.rotation.transpose() * contact.tangent2);
@@ -614,42 +623,128 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     const Matrix3 W = Vector3(s.W_N(), s.W_T(), s.W_T()).asDiagonal();
     Matrix2 W_r = Matrix2::Zero();
     if (p.rolling) W_r.diagonal().setConstant(s.inverse_inertia_a + s.inverse_inertia_b);
-    finishRowTail(pc, W, W_r, known, contact.gap, contact.friction, contact.restitution, spin,
-                  contact.rolling, true);
-    s.bias = p.normal_bias.back();
-    s.mu = p.friction.back();
-    s.normal_inverse = p.delassus_inverse.back()(0, 0);
-    s.tangent_inverse = p.delassus_inverse.back()(1, 1);
-    if (p.rolling && p.rolling_bound.back() > 0.0) {
-      s.rolling_bound = p.rolling_bound.back();
+    finishRowTail(pc, touched, W, W_r, known, contact.gap, contact.friction, contact.restitution,
+                  spin, contact.rolling, true);
+    s.bias = p.normal_bias[pc];
+    s.mu = p.friction[pc];
+    s.normal_inverse = p.delassus_inverse[pc](0, 0);
+    s.tangent_inverse = p.delassus_inverse[pc](1, 1);
+    if (p.rolling && p.rolling_bound[pc] > 0.0) {
+      s.rolling_bound = p.rolling_bound[pc];
       s.rolling_inverse = 1.0 / W_r(0, 0);
     }
   };
 
+  // A contact's row from its Jacobian entries
+  auto contactEntryRow = [&](int pc, int c, std::vector<int>& touched) {
+    const Contact& contact = cdata.contacts[c];
+    for (int k = J.begin[c], e = p.begin[pc]; k < J.begin[c + 1]; ++k, ++e) {
+      p.dof[e] = J.dof[k];
+      p.h[e] = Vector3(J.normal[k], J.tangent1[k], J.tangent2[k]);
+      if (p.rolling) p.rolling_h[e] = Vector2(J.rolling1[k], J.rolling2[k]);
+    }
+    const bool diagonal_row =
+        entryComponents(&J.dof[J.begin[c]], J.begin[c + 1] - J.begin[c], touched);
+    finishEntryRow(pc, touched, diagonal_row, J.known_velocity[c], contact.gap, contact.friction,
+                   contact.restitution, p.rolling ? J.known_spin[c] : Vector2::Zero(),
+                   contact.rolling);
+  };
+
+  // The contacts' rows in three passes: what row each contact makes (threads), the rows
+  // numbered in contact order with their places in the arrays, then the rows written, each
+  // at its place (threads; general rows, which share scratch, on one thread). Each row's
+  // arithmetic is the same on any thread: the problem has the same bits for every count.
+  enum RowKind : char { kNoRow, kSphereRow, kBodyFormRow, kDiagonalRow, kSerialRow };
   const double touching = touchingGap(cmodel);
   const bool body_form = p.pack_body_form && p.dimension == 3;
   const bool compact_spheres = body_form && p.compact_spheres;
-  for (int c = 0; c < static_cast<int>(cdata.contacts.size()); ++c) {
+  const int m = static_cast<int>(cdata.contacts.size());
+  if (m < kParallelAssemblyContacts) threads = 1;
+  threads = std::max(threads, 1);
+  if (static_cast<int>(ws.thread_touched.size()) < threads) ws.thread_touched.resize(threads);
+  ws.row_kind.resize(m);
+  ws.row_minv_entries.resize(m);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (int c = 0; c < m; ++c) {
     const Contact& contact = cdata.contacts[c];
+    char kind = kNoRow;
+    int minv_entries = 0;
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
-    if (law == NormalLaw::Vel && contact.gap > touching) continue;
-    if (deferred != nullptr && (*deferred)[c]) continue;
-    p.contact.push_back(c);
-    if (body_form && rowInBodyForm(model, data, cmodel, contact, ws)) {
-      if (compact_spheres && sphereRowFits(contact, ws))
-        sphereRow(contact);
-      else
-        bodyFormRow(contact);
-      continue;
+    if ((law == NormalLaw::Vel && contact.gap > touching) ||
+        (deferred != nullptr && (*deferred)[c])) {
+    } else if (body_form && rowInBodyForm(model, data, cmodel, contact, ws)) {
+      kind = compact_spheres && sphereRowFits(contact, ws) ? kSphereRow : kBodyFormRow;
+    } else {
+      std::vector<int>& touched = ws.thread_touched[omp_get_thread_num()];
+      const bool diagonal_row =
+          entryComponents(&J.dof[J.begin[c]], J.begin[c + 1] - J.begin[c], touched);
+      kind = diagonal_row && touched.size() <= 2 ? kDiagonalRow : kSerialRow;
+      if (!diagonal_row) minv_entries = minvEntries(touched);
     }
-    for (int k = J.begin[c]; k < J.begin[c + 1]; ++k) {
-      p.dof.push_back(J.dof[k]);
-      p.h.emplace_back(J.normal[k], J.tangent1[k], J.tangent2[k]);
-      if (p.rolling) p.rolling_h.emplace_back(J.rolling1[k], J.rolling2[k]);
-    }
-    finishRow(J.known_velocity[c], contact.gap, contact.friction, contact.restitution,
-              p.rolling ? J.known_spin[c] : Vector2::Zero(), contact.rolling);
+    ws.row_kind[c] = kind;
+    ws.row_minv_entries[c] = minv_entries;
   }
+  int rows = 0, entries = 0, minv_entries = 0, spheres = 0, body_forms = 0;
+  for (int c = 0; c < m; ++c) rows += ws.row_kind[c] != kNoRow;
+  sizeRows(rows);
+  for (int c = 0, pc = 0; c < m; ++c) {
+    const char kind = ws.row_kind[c];
+    if (kind == kNoRow) continue;
+    p.contact[pc] = c;
+    p.row_sphere[pc] = kind == kSphereRow ? spheres++ : -1;
+    p.row_body_form[pc] = kind == kBodyFormRow ? body_forms++ : -1;
+    if (kind == kDiagonalRow || kind == kSerialRow) entries += J.begin[c + 1] - J.begin[c];
+    minv_entries += ws.row_minv_entries[c];
+    ++pc;
+    p.begin[pc] = entries;
+    p.minv_begin[pc] = minv_entries;
+  }
+  sizeEntries(entries, minv_entries);
+  p.spheres3d.resize(spheres);
+  p.bodies3d.resize(body_forms);
+  p.direct_body_forms = body_forms;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (int pc = 0; pc < rows; ++pc) {
+    const int c = p.contact[pc];
+    std::vector<int>& touched = ws.thread_touched[omp_get_thread_num()];
+    switch (ws.row_kind[c]) {
+      case kSphereRow:
+        sphereRow(pc, cdata.contacts[c], touched);
+        break;
+      case kBodyFormRow:
+        bodyFormRow(pc, cdata.contacts[c], touched);
+        break;
+      case kDiagonalRow:
+        contactEntryRow(pc, c, touched);
+        break;
+      default:
+        break;
+    }
+  }
+  for (int pc = 0; pc < rows; ++pc) {
+    if (ws.row_kind[p.contact[pc]] != kSerialRow) continue;
+    contactEntryRow(pc, p.contact[pc], ws.touched);
+    joinComponents(ws.touched);
+  }
+
+  // a row appended after the contacts' rows, on one thread: entries(first) writes its H
+  // entries at [first, first + count)
+  auto appendEntryRow = [&](int id, int count, auto&& writeEntries, const Vector3& known,
+                            double gap, double mu, double e) {
+    const int pc = p.size();
+    sizeRows(pc + 1);
+    p.contact[pc] = id;
+    const int first = static_cast<int>(p.dof.size());
+    p.begin[pc + 1] = first + count;
+    sizeEntries(first + count, static_cast<int>(p.minv_dof.size()));
+    writeEntries(first);
+    const bool diagonal_row = entryComponents(&p.dof[first], count, ws.touched);
+    const int minv_first = static_cast<int>(p.minv_dof.size());
+    p.minv_begin[pc + 1] = minv_first + (diagonal_row ? 0 : minvEntries(ws.touched));
+    sizeEntries(first + count, p.minv_begin[pc + 1]);
+    finishEntryRow(pc, ws.touched, diagonal_row, known, gap, mu, e, Vector2::Zero(), 0.0);
+    joinComponents(ws.touched);
+  };
 
   // Under VEL a limit or a constraint by functions is closed at gap <= kClosedGap (m or rad):
   // a state placed on the constraint lands a few ulps off it, and must not start open.
@@ -662,11 +757,14 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     if (v_free) rate = std::max(rate, std::abs((*v_free)[limit.v_index]));
     const double reach = law == NormalLaw::Vel ? kClosedGap : 2.0 * tau * rate;
     if (gap > reach) continue;
-    p.contact.push_back(-1 - l);
-    p.dof.push_back(limit.v_index);
-    p.h.emplace_back(limit.side, 0.0, 0.0);
-    if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
-    finishRow(Vector3::Zero(), gap, 0.0, 0.0, Vector2::Zero(), 0.0);
+    appendEntryRow(
+        -1 - l, 1,
+        [&](int first) {
+          p.dof[first] = limit.v_index;
+          p.h[first] = Vector3(limit.side, 0.0, 0.0);
+          if (p.rolling) p.rolling_h[first] = Vector2::Zero();
+        },
+        Vector3::Zero(), gap, 0.0, 0.0);
   }
 
   // constraints by functions (Model::constraints): gap, normal and tangents at q_m
@@ -693,14 +791,23 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
     const VectorX tangent = direction(f.tangent, "tangent");
     const VectorX tangent2 =
         p.dimension == 3 ? direction(f.tangent2, "second tangent") : VectorX::Zero(model.nv);
-    p.contact.push_back(-1 - (limit_count + k));
-    for (int j = 0; j < model.nv; ++j) {
-      if (normal[j] == 0.0 && tangent[j] == 0.0 && tangent2[j] == 0.0) continue;
-      p.dof.push_back(j);
-      p.h.emplace_back(normal[j], tangent[j], tangent2[j]);
-      if (p.rolling) p.rolling_h.emplace_back(0.0, 0.0);
-    }
-    finishRow(Vector3::Zero(), gap, f.friction, f.restitution, Vector2::Zero(), 0.0);
+    auto nonzero = [&](int j) {
+      return normal[j] != 0.0 || tangent[j] != 0.0 || tangent2[j] != 0.0;
+    };
+    int count = 0;
+    for (int j = 0; j < model.nv; ++j) count += nonzero(j);
+    appendEntryRow(
+        -1 - (limit_count + k), count,
+        [&](int first) {
+          for (int j = 0; j < model.nv; ++j) {
+            if (!nonzero(j)) continue;
+            p.dof[first] = j;
+            p.h[first] = Vector3(normal[j], tangent[j], tangent2[j]);
+            if (p.rolling) p.rolling_h[first] = Vector2::Zero();
+            ++first;
+          }
+        },
+        Vector3::Zero(), gap, f.friction, f.restitution);
     if (f.bilateral) {
       p.bilateral.resize(p.size(), 0);
       p.bilateral.back() = 1;
@@ -708,8 +815,16 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   }
   if (!p.bilateral.empty()) p.bilateral.resize(p.size(), 0);
 
-  // islands numbered in order of their first row: deterministic
+  // the rows of two components or fewer, joined here (the others were, as they were made)
   const int n = p.size();
+  for (int c = 0; c < n; ++c) {
+    const std::array<int, 2>& moved = p.row_components[c];
+    if (moved[0] < 0 || moved[1] < 0) continue;
+    const int a = root(moved[0]), b = root(moved[1]);
+    if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+  }
+
+  // islands numbered in order of their first row: deterministic
   std::fill(ws.island_of_root.begin(), ws.island_of_root.end(), -1);
   std::vector<int>& island_begin = p.island_begin;
   island_begin.assign(1, 0);

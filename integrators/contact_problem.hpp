@@ -413,8 +413,11 @@ struct ContactProblemWorkspace {
   std::vector<MatrixX> component_rhs;  // per component: nv x 3 block of H restricted to it
   std::vector<int> dof_component;      // component of each velocity index
   std::vector<int> touched;            // components of the current contact
-  std::vector<int> row_component;      // islands: a component of each row
-  std::vector<int> component_parent;   // islands: union-find over components
+  std::vector<std::vector<int>> thread_touched;  // the same, per thread of the assembly
+  std::vector<char> row_kind;                    // per detected contact: the row it makes, if any
+  std::vector<int> row_minv_entries;             // per detected contact: its M^-1 H entries
+  std::vector<int> row_component;                // islands: a component of each row
+  std::vector<int> component_parent;             // islands: union-find over components
   std::vector<int> island_of_root;
   // per velocity index: its M^-1 H entry in the row being finished, -1 outside it. W_cc and
   // W_r then pair each H entry with its M^-1 H entry in one lookup instead of a double loop.
@@ -441,6 +444,11 @@ struct ContactProblemWorkspace {
 // driven body). Its Jacobian rows are then not read: the stepper skips them.
 bool rowInBodyForm(const Model& model, const Data& data, const ContactModel& cmodel,
                    const Contact& contact, ContactProblemWorkspace& workspace);
+// The per-body part of rowInBodyForm, computed once (Data's constant inverses do not change)
+// into workspace.free_particle and sphere_particles; rowInBodyForm calls it, and so must a
+// caller before it asks rowInBodyForm from several threads.
+void findFreeParticles(const Model& model, const Data& data, const ContactModel& cmodel,
+                       ContactProblemWorkspace& workspace);
 
 // A contact that touches exactly (a block placed on a floor) has a computed gap of +-1e-17 m
 // from round-off; with the bare test gap <= 0, one of a block's two corners would leave the
@@ -459,11 +467,15 @@ double touchingGap(const ContactModel& cmodel);
 // step would otherwise pass it unseen).
 // deferred (when given, one flag per detected contact): contacts left out of this problem;
 // candidate screening (time_stepper.hpp) solves without them and checks them afterwards.
+// threads: the contacts' rows are written on that many threads from
+// kParallelAssemblyContacts detected contacts on, each row with the arithmetic it has on one
+// thread (the same bits for every count); rows over trees and general masses on one thread.
+constexpr int kParallelAssemblyContacts = 8192;
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, double t, NormalLaw law, double tau,
                             const VectorX& q_m, const VectorX& v_start, ContactProblem& problem,
                             ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr,
-                            const std::vector<char>* deferred = nullptr);
+                            const std::vector<char>* deferred = nullptr, int threads = 1);
 
 // The normal law's offset on U_N(k+1): U*_N = U_N(k+1) + normalBias(...) >= 0 for a contact
 // in the index set, with u_start = U_N(k) and the gap at q_m.

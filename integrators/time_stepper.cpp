@@ -324,7 +324,10 @@ void TimeStepper::assembleJacobian() {
   // rows the problem writes in body form from the contacts need no Jacobian rows: free
   // particles, the bulk of a granular step (contact_problem.hpp, rowInBodyForm)
   const int m = static_cast<int>(cdata_.contacts.size());
-  jacobian_skip_.assign(m, 0);
+  jacobian_skip_.resize(m);
+  if (cmodel_.dimension == 3) findFreeParticles(model_, data_, cmodel_, problem_ws_);
+  const int threads = settings_.threadCount();
+#pragma omp parallel for schedule(static) num_threads(threads) if (m >= kParallelItems)
   for (int id = 0; id < m; ++id)
     jacobian_skip_[id] = (!unassembled_.empty() && unassembled_[id]) ||
                          (problem_.pack_body_form &&
@@ -413,7 +416,8 @@ void TimeStepper::assembleProblem() {
   const auto start = Clock::now();
   assembleContactProblem(model_, data_, cmodel_, cdata_, t_ + 0.5 * settings_.h,
                          settings_.normal_law, 0.5 * settings_.h, q_m_, v_, problem_, problem_ws_,
-                         &v_free_, deferred_.empty() ? nullptr : &deferred_);
+                         &v_free_, deferred_.empty() ? nullptr : &deferred_,
+                         settings_.threadCount());
   const int n = problem_.size();
   stats_.active = n;
   stats_.islands = problem_.islandCount();
