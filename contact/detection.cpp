@@ -6,6 +6,7 @@
 
 #include "contact/fcl_scene.hpp"
 #include "contact/narrowphase_analytic.hpp"
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -65,7 +66,10 @@ ContactData& ContactData::operator=(ContactData&&) noexcept = default;
 
 void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
                          ContactData& cdata) {
-  for (int i = 0; i < cmodel.size(); ++i) {
+  const int n = cmodel.size();
+#pragma omp parallel for schedule(static) \
+    num_threads(data.threads) if (data.threads > 1 && n >= kParallelItems)
+  for (int i = 0; i < n; ++i) {
     const Geometry& g = cmodel.geometries[i];
     switch (g.body.kind) {
       case BodyRef::Kind::World:
@@ -83,17 +87,21 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
 
 double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
                          double t) {
-  double fastest = 0.0;
-  for (const Geometry& g : cmodel.geometries) {
-    Vector6 twist = Vector6::Zero();
-    if (g.body.kind == BodyRef::Kind::Dynamic) twist = data.velocity[g.body.index];
-    if (g.body.kind == BodyRef::Kind::Driven) twist = model.driven_bodies[g.body.index].twist(t);
-    // |v_origin| + |w| * (distance of any shape point from the body origin)
-    const double reach =
-        isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
-    fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
-  }
-  return fastest;
+  // std::max(fastest, x) leaves a NaN x out, in any order: chunks on threads change nothing
+  return reduceInChunks(
+      cmodel.size(), data.threads, 0.0,
+      [&](long i, double& fastest) {
+        const Geometry& g = cmodel.geometries[i];
+        Vector6 twist = Vector6::Zero();
+        if (g.body.kind == BodyRef::Kind::Dynamic) twist = data.velocity[g.body.index];
+        if (g.body.kind == BodyRef::Kind::Driven)
+          twist = model.driven_bodies[g.body.index].twist(t);
+        // |v_origin| + |w| * (distance of any shape point from the body origin)
+        const double reach =
+            isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
+        fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
+      },
+      [](double& fastest, double part) { fastest = std::max(fastest, part); });
 }
 
 double ballClosingSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
@@ -118,13 +126,28 @@ double ballClosingSpeed(const Model& model, const Data& data, const ContactModel
     }
     return Vector3::Zero();
   };
-  for (int i = 0; i < cmodel.size(); ++i) {
-    if (!(cmodel.traits[i].ball_radius > 0.0)) continue;
-    const Vector3 c = centreVelocity(i);
-    low = low.cwiseMin(c);
-    high = high.cwiseMax(c);
-    fastest = std::max(fastest, c.norm());
-  }
+  // min and max leave NaN entries out, in any order: chunks on threads change nothing
+  struct Bounds {
+    Vector3 low, high;
+    double fastest;
+  };
+  const Bounds bounds = reduceInChunks(
+      cmodel.size(), data.threads, Bounds{low, high, fastest},
+      [&](long i, Bounds& part) {
+        if (!(cmodel.traits[i].ball_radius > 0.0)) return;
+        const Vector3 c = centreVelocity(static_cast<int>(i));
+        part.low = part.low.cwiseMin(c);
+        part.high = part.high.cwiseMax(c);
+        part.fastest = std::max(part.fastest, c.norm());
+      },
+      [](Bounds& total, const Bounds& part) {
+        total.low = total.low.cwiseMin(part.low);
+        total.high = total.high.cwiseMax(part.high);
+        total.fastest = std::max(total.fastest, part.fastest);
+      });
+  low = bounds.low;
+  high = bounds.high;
+  fastest = bounds.fastest;
   if (!(low.x() <= high.x())) return 0.0;  // no balls
   const double spread = 0.5 * (high - low).norm();
   // a non-finite spread compares false and leaves the absolute bound, as fastestShapeSpeed
@@ -473,14 +496,65 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
   sortPairs(cmodel.size(), cdata);
   cdata.stats = DetectionStats{};
 
-  // narrowphase, then identity across steps and frames, on one thread: split between two
-  // threads (each run counted, then written in place) it took 0.57 s against 0.52 s over 30
-  // steps of the wide bed (200 000 contacts, 36 MB written a step): memory, not arithmetic
-  cdata.contacts.clear();
-  for (const auto& pair : cdata.pairs)
-    narrowphasePair(model, cmodel, cdata, t, margins, pair, cdata.contacts, cdata.points,
-                    cdata.stats.broadphase_pairs);
-  cdata.stats.matched = matchPrevious(cdata, cmodel.dimension, 0, cdata.contacts.size());
+  // narrowphase, then identity across steps and frames
+  const std::size_t pair_count = cdata.pairs.size();
+  const int runs = cmodel.path == DetectionPath::Analytic && pair_count >= kParallelItems
+                       ? std::max(1, threads)
+                       : 1;  // FCL's scene is not shared between threads
+  if (runs == 1) {
+    cdata.contacts.clear();
+    for (const auto& pair : cdata.pairs)
+      narrowphasePair(model, cmodel, cdata, t, margins, pair, cdata.contacts, cdata.points,
+                      cdata.stats.broadphase_pairs);
+    cdata.stats.matched = matchPrevious(cdata, cmodel.dimension, 0, cdata.contacts.size());
+    cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
+    return;
+  }
+  // Pairs cut into one run per thread. Each run's contacts are counted first, then written
+  // at their place in the one list, pair by pair through a scratch list that stays in cache:
+  // the same list as one thread's, each contact written once to memory. The list keeps the
+  // elements of two detections ago and constructs only the ones it gains (a cleared list
+  // constructed every element, 60 MB on a wide powder bed, on one thread).
+  if (cdata.run_contacts.size() < static_cast<std::size_t>(runs)) {
+    cdata.run_contacts.resize(runs);
+    cdata.run_points.resize(runs);
+  }
+  std::vector<std::size_t> offset(runs + 1, 0);
+  std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
+  auto runPairs = [&](int r, auto&& use) {
+    std::vector<Contact>& scratch = cdata.run_contacts[r];
+    int visited = 0;
+    for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k) {
+      scratch.clear();
+      narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], scratch,
+                      cdata.run_points[r], visited);
+      use(scratch);
+    }
+    broadphase_pairs[r] = visited;
+  };
+#pragma omp parallel num_threads(runs)
+  {
+#pragma omp for schedule(static, 1)
+    for (int r = 0; r < runs; ++r)
+      runPairs(r, [&](const std::vector<Contact>& found) { offset[r + 1] += found.size(); });
+#pragma omp single
+    {
+      for (int r = 0; r < runs; ++r) offset[r + 1] += offset[r];
+      cdata.contacts.resize(offset[runs]);
+    }
+#pragma omp for schedule(static, 1)
+    for (int r = 0; r < runs; ++r) {
+      std::size_t next = offset[r];
+      runPairs(r, [&](const std::vector<Contact>& found) {
+        for (const Contact& c : found) cdata.contacts[next++] = c;
+      });
+      matched[r] = matchPrevious(cdata, cmodel.dimension, offset[r], offset[r + 1]);
+    }
+  }
+  for (int r = 0; r < runs; ++r) {
+    cdata.stats.broadphase_pairs += broadphase_pairs[r];
+    cdata.stats.matched += matched[r];
+  }
   cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
 }
 
@@ -489,19 +563,33 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
   updateGeometryPoses(model, data, cmodel, t, cdata);
   const double far = std::numeric_limits<double>::infinity();
   if (cdata.fcl) cdata.fcl->update(cdata.geometry_pose, 0.0);
-  gaps.assign(cdata.contacts.size(), far);
+  const long m = static_cast<long>(cdata.contacts.size());
+  gaps.resize(m);
+  // a pair of balls has one contact, its feature the image it meets: the gap of ballBall
+  // alone, the bulk of a powder step's candidates, each on its own (threads)
+  auto ballPair = [&](long c) {
+    const ContactModel::Traits& ta = cmodel.traits[cdata.contacts[c].key.geometry_a];
+    const ContactModel::Traits& tb = cmodel.traits[cdata.contacts[c].key.geometry_b];
+    return ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic;
+  };
+#pragma omp parallel for schedule(static) \
+    num_threads(data.threads) if (data.threads > 1 && m >= kParallelItems)
+  for (long c = 0; c < m; ++c) {
+    gaps[c] = far;
+    if (!ballPair(c)) continue;
+    const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
+    const Vector3 center_b = cdata.geometry_pose[b].translation +
+                             imageShift(cmodel.settings.periodic, cdata.contacts[c].key.feature);
+    gaps[c] = (center_b - cdata.geometry_pose[a].translation).norm() -
+              cmodel.traits[a].ball_radius - cmodel.traits[b].ball_radius;
+  }
+  // the other pairs on this thread, their contacts together (one narrowphase per pair)
   std::size_t c = 0;
   while (c < cdata.contacts.size()) {
     const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];
-    if (ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic) {
-      // a pair of balls has one contact, its feature the image it meets: the gap of ballBall
-      // alone, the bulk of a powder step's candidates
-      const Vector3 center_b = cdata.geometry_pose[b].translation +
-                               imageShift(cmodel.settings.periodic, cdata.contacts[c].key.feature);
-      gaps[c] =
-          (center_b - cdata.geometry_pose[a].translation).norm() - ta.ball_radius - tb.ball_radius;
+    if (ballPair(static_cast<long>(c))) {
       ++c;
       continue;
     }

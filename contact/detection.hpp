@@ -45,6 +45,9 @@ struct ContactData {
   std::vector<ContactPoint> points;
   // threaded broadphase: each thread's pairs
   std::vector<std::vector<std::pair<int, int>>> run_pairs;
+  // threaded narrowphase: each thread's contacts of one pair, and its points
+  std::vector<std::vector<Contact>> run_contacts;
+  std::vector<std::vector<ContactPoint>> run_points;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry
   // grid path: positions in `large` of the geometries with dofs, ascending. Two frozen shapes

@@ -1,5 +1,7 @@
 #include "framework/configuration.hpp"
 
+#include "framework/parallel.hpp"
+
 #include <stdexcept>
 #include <string>
 
@@ -26,19 +28,24 @@ Quaternion exponential(const Vector3& rotation_vector) {
 
 }  // namespace
 
-void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out) {
+void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out,
+               int threads) {
   if (&q_out != &q) q_out = q;
-  for (const Body& b : model.bodies) {
-    const int iq = b.q_index, iv = b.v_index;
-    if (b.joint.type != JointType::Floating) {
-      q_out.segment(iq, b.joint.nq()) += dv.segment(iv, b.joint.nv());
-      continue;
+  forEachBodyComponent(model, threads, [&](int c) {
+    const Component& comp = model.components[c];
+    for (int i = comp.first_body; i < comp.end_body; ++i) {
+      const Body& b = model.bodies[i];
+      const int iq = b.q_index, iv = b.v_index;
+      if (b.joint.type != JointType::Floating) {
+        q_out.segment(iq, b.joint.nq()) += dv.segment(iv, b.joint.nv());
+        continue;
+      }
+      q_out.segment<3>(iq) += dv.segment<3>(iv);
+      const Quaternion rotated =
+          (quaternionAt(q_out, iq) * exponential(dv.segment<3>(iv + 3))).normalized();
+      storeQuaternion(rotated, q_out, iq);
     }
-    q_out.segment<3>(iq) += dv.segment<3>(iv);
-    const Quaternion rotated =
-        (quaternionAt(q_out, iq) * exponential(dv.segment<3>(iv + 3))).normalized();
-    storeQuaternion(rotated, q_out, iq);
-  }
+  });
   for (const Component& c : model.components) {
     if (c.system < 0) continue;
     const EquationSystem& system = model.systems[c.system];

@@ -8,7 +8,9 @@ namespace sweep {
 
 // q_out = q (+) dv: every coordinate moves by dv as if v = dv were held for unit time
 // (quaternions by the exponential map of the body-axes rotation vector).
-void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out);
+// threads: the body trees on that many threads from kParallelItems trees on (parallel.hpp)
+void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out,
+               int threads = 1);
 VectorX integrate(const Model& model, const VectorX& q, const VectorX& dv);
 
 // dv such that q0 (+) dv = q1.

@@ -1,6 +1,7 @@
 #include "framework/crba.hpp"
 
 #include "framework/kinematics.hpp"
+#include "framework/parallel.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -20,14 +21,16 @@ MatrixX systemMass(const Model& model, int component, const VectorX& q) {
 }
 
 void computeMassBlocks(const Model& model, Data& data, bool include_constant) {
+  // systems by their equations on this thread (their mass may call back into Python)
   for (size_t c = 0; c < model.components.size(); ++c) {
     const Component& comp = model.components[c];
-    if (comp.constant_mass && !include_constant) continue;
+    if (comp.system >= 0 && (include_constant || !comp.constant_mass))
+      data.mass_blocks[c] = systemMass(model, c, data.q);
+  }
+  forEachBodyComponent(model, data.threads, [&](int c) {
+    const Component& comp = model.components[c];
+    if (comp.constant_mass && !include_constant) return;
     MatrixX& block = data.mass_blocks[c];
-    if (comp.system >= 0) {
-      block = systemMass(model, c, data.q);
-      continue;
-    }
 
     // backward pass: composite inertias, each in its own body frame
     for (int i = comp.first_body; i < comp.end_body; ++i)
@@ -63,7 +66,7 @@ void computeMassBlocks(const Model& model, Data& data, bool include_constant) {
         }
       }
     }
-  }
+  });
 }
 
 void computeMassBlocks(const Model& model, Data& data, const VectorX& q, bool include_constant) {
@@ -76,15 +79,18 @@ void crba(const Model& model, Data& data, const VectorX& q) {
 }
 
 void factorizeMassMatrix(const Model& model, Data& data) {
-  for (size_t c = 0; c < model.components.size(); ++c)
+  forEachBodyComponent(model, data.threads, [&](int c) {
+    if (!model.components[c].constant_mass) data.mass_factors[c].compute(data.mass_blocks[c]);
+  });
+  for (size_t c = model.components.size() - model.systems.size(); c < model.components.size(); ++c)
     if (!model.components[c].constant_mass) data.mass_factors[c].compute(data.mass_blocks[c]);
 }
 
 void applyMassInverse(const Model& model, const Data& data, const VectorX& rhs, VectorX& out) {
   if (&out != &rhs) out = rhs;
-  for (size_t c = 0; c < model.components.size(); ++c) {
+  auto solve = [&](int c) {
     const Component& comp = model.components[c];
-    if (comp.nv == 0) continue;
+    if (comp.nv == 0) return;
     if (data.has_constant_inverse6[c]) {
       // a free body's constant block: one 6x6 product instead of two triangular solves
       const Vector6 rhs_block = out.segment<6>(comp.v_index);
@@ -92,11 +98,15 @@ void applyMassInverse(const Model& model, const Data& data, const VectorX& rhs, 
         out.segment<6>(comp.v_index) = data.constant_inverse6[c].diagonal().cwiseProduct(rhs_block);
       else
         out.segment<6>(comp.v_index).noalias() = data.constant_inverse6[c] * rhs_block;
-      continue;
+      return;
     }
     auto segment = out.segment(comp.v_index, comp.nv);
     data.mass_factors[c].solveInPlace(segment);
-  }
+  };
+  forEachBodyComponent(model, data.threads, solve);
+  for (int c = static_cast<int>(model.components.size() - model.systems.size());
+       c < static_cast<int>(model.components.size()); ++c)
+    solve(c);
 }
 
 void applyMass(const Model& model, const Data& data, const VectorX& rhs, VectorX& out) {

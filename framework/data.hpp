@@ -38,6 +38,9 @@ struct Data {
   // models with systems by their equations: the state of the last forwardKinematics, which
   // their mass matrices and energies read (empty otherwise)
   VectorX q, v;
+  // the passes over the body trees (kinematics, RNEA, mass blocks, M^-1) run on this many
+  // threads when the model has kParallelItems trees or more (framework/parallel.hpp)
+  int threads = 1;
 };
 
 }  // namespace sweep

@@ -3,6 +3,7 @@
 #include "framework/crba.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -29,10 +30,19 @@ Vector3 centerOfMass(const Model& model, Data& data, const VectorX& q) {
   return moment / mass;
 }
 
+namespace {
+void add(double& total, double part) {
+  total += part;
+}
+}  // namespace
+
 double kineticEnergy(const Model& model, const Data& data) {
-  double energy = 0.0;
-  for (size_t i = 0; i < model.bodies.size(); ++i)
-    energy += 0.5 * data.velocity[i].dot(model.bodies[i].inertia.apply(data.velocity[i]));
+  double energy = reduceInChunks(
+      static_cast<long>(model.bodies.size()), data.threads, 0.0,
+      [&](long i, double& sum) {
+        sum += 0.5 * data.velocity[i].dot(model.bodies[i].inertia.apply(data.velocity[i]));
+      },
+      add);
   for (std::size_t c = 0; c < model.components.size(); ++c) {
     const Component& comp = model.components[c];
     if (comp.system < 0) continue;
@@ -43,11 +53,13 @@ double kineticEnergy(const Model& model, const Data& data) {
 }
 
 double potentialEnergy(const Model& model, const Data& data) {
-  double energy = 0.0;
-  for (size_t i = 0; i < model.bodies.size(); ++i) {
-    const Inertia& inertia = model.bodies[i].inertia;
-    energy -= inertia.mass * model.gravity.dot(data.world_pose[i].apply(inertia.com));
-  }
+  double energy = reduceInChunks(
+      static_cast<long>(model.bodies.size()), data.threads, 0.0,
+      [&](long i, double& sum) {
+        const Inertia& inertia = model.bodies[i].inertia;
+        sum -= inertia.mass * model.gravity.dot(data.world_pose[i].apply(inertia.com));
+      },
+      add);
   for (const Component& comp : model.components)
     if (comp.system >= 0 && model.systems[comp.system].potential)
       energy += model.systems[comp.system].potential(data.q.segment(comp.q_index, comp.nq));

@@ -2,6 +2,7 @@
 
 #include "framework/crba.hpp"
 #include "framework/kinematics.hpp"
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -13,30 +14,33 @@ const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, cons
   Vector6 base_acceleration;
   base_acceleration << Vector3::Zero(), gravity ? Vector3(-model.gravity) : Vector3::Zero();
 
-  // forward pass: a_i = X_i a_parent + S_i qdd_i + c_J + v_i x (S_i qd_i);  f_i = I a + v x* I v
-  for (size_t i = 0; i < model.bodies.size(); ++i) {
-    const Body& body = model.bodies[i];
-    const MotionSubspace& S = data.motion_subspace[i];
-    const Vector6 joint_velocity = S.apply(v.data() + body.v_index);
-    const Vector6& parent_acceleration =
-        body.parent < 0 ? base_acceleration : data.acceleration[body.parent];
-    Vector6 acc = data.parent_pose[i].motionToChild(parent_acceleration) +
-                  data.bias_acceleration[i] + crossMotion(data.velocity[i], joint_velocity);
-    if (a) acc += S.apply(a->data() + body.v_index);
-    data.acceleration[i] = acc;
-    const Inertia& inertia = body.inertia;
-    data.force[i] =
-        inertia.apply(acc) + crossForce(data.velocity[i], inertia.apply(data.velocity[i]));
-  }
-
-  // backward pass: tau_i = S_i^T f_i, f_parent += X_i^* f_i
-  for (int i = static_cast<int>(model.bodies.size()) - 1; i >= 0; --i) {
-    const Body& body = model.bodies[i];
-    const MotionSubspace& S = data.motion_subspace[i];
-    S.applyTranspose(data.force[i], data.tau.data() + body.v_index);
-    if (body.parent >= 0)
-      data.force[body.parent] += data.parent_pose[i].forceToParent(data.force[i]);
-  }
+  // tree by tree: the forward pass in body order, the backward pass in reverse
+  forEachBodyComponent(model, data.threads, [&](int c) {
+    const Component& comp = model.components[c];
+    // forward: a_i = X_i a_parent + S_i qdd_i + c_J + v_i x (S_i qd_i);  f_i = I a + v x* I v
+    for (int i = comp.first_body; i < comp.end_body; ++i) {
+      const Body& body = model.bodies[i];
+      const MotionSubspace& S = data.motion_subspace[i];
+      const Vector6 joint_velocity = S.apply(v.data() + body.v_index);
+      const Vector6& parent_acceleration =
+          body.parent < 0 ? base_acceleration : data.acceleration[body.parent];
+      Vector6 acc = data.parent_pose[i].motionToChild(parent_acceleration) +
+                    data.bias_acceleration[i] + crossMotion(data.velocity[i], joint_velocity);
+      if (a) acc += S.apply(a->data() + body.v_index);
+      data.acceleration[i] = acc;
+      const Inertia& inertia = body.inertia;
+      data.force[i] =
+          inertia.apply(acc) + crossForce(data.velocity[i], inertia.apply(data.velocity[i]));
+    }
+    // backward: tau_i = S_i^T f_i, f_parent += X_i^* f_i
+    for (int i = comp.end_body - 1; i >= comp.first_body; --i) {
+      const Body& body = model.bodies[i];
+      const MotionSubspace& S = data.motion_subspace[i];
+      S.applyTranspose(data.force[i], data.tau.data() + body.v_index);
+      if (body.parent >= 0)
+        data.force[body.parent] += data.parent_pose[i].forceToParent(data.force[i]);
+    }
+  });
   // systems by their equations: no bias of their own (their forces are applied forces), and
   // M(q) a for inverse dynamics
   for (std::size_t c = 0; c < model.components.size(); ++c) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "contact/detection.hpp"
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -659,7 +660,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   const bool body_form = p.pack_body_form && p.dimension == 3;
   const bool compact_spheres = body_form && p.compact_spheres;
   const int m = static_cast<int>(cdata.contacts.size());
-  if (m < kParallelAssemblyContacts) threads = 1;
+  if (m < kParallelItems) threads = 1;
   threads = std::max(threads, 1);
   if (static_cast<int>(ws.thread_touched.size()) < threads) ws.thread_touched.resize(threads);
   ws.row_kind.resize(m);

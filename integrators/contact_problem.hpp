@@ -467,10 +467,9 @@ double touchingGap(const ContactModel& cmodel);
 // step would otherwise pass it unseen).
 // deferred (when given, one flag per detected contact): contacts left out of this problem;
 // candidate screening (time_stepper.hpp) solves without them and checks them afterwards.
-// threads: the contacts' rows are written on that many threads from
-// kParallelAssemblyContacts detected contacts on, each row with the arithmetic it has on one
-// thread (the same bits for every count); rows over trees and general masses on one thread.
-constexpr int kParallelAssemblyContacts = 8192;
+// threads: the contacts' rows are written on that many threads from kParallelItems detected
+// contacts on, each row with the arithmetic it has on one thread (the same bits for every
+// count); rows over trees and general masses on one thread.
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                             const ContactData& cdata, double t, NormalLaw law, double tau,
                             const VectorX& q_m, const VectorX& v_start, ContactProblem& problem,

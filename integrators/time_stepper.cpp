@@ -15,6 +15,7 @@
 #include "framework/energy.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
+#include "framework/parallel.hpp"
 #include "integrators/packed_rows.hpp"
 
 namespace sweep {
@@ -122,6 +123,7 @@ double TimeStepper::energy() {
 
 const StepStats& TimeStepper::step() {
   stats_.step += 1;
+  data_.threads = settings_.threadCount();
   midpoint();      // 1
   detect();        // 2
   freeVelocity();  // 4 (M(q_m) is factored here; stage 3 needs it)
@@ -156,7 +158,7 @@ const StepStats& TimeStepper::step() {
 }
 
 void TimeStepper::midpoint() {
-  integrate(model_, q_, 0.5 * settings_.h * v_, q_m_);
+  integrate(model_, q_, 0.5 * settings_.h * v_, q_m_, settings_.threadCount());
 }
 
 void TimeStepper::detect(const DetectionMargins& at_least) {
@@ -254,9 +256,6 @@ void TimeStepper::freeVelocity() {
 }
 
 namespace {
-// Loops over bodies or contacts whose items write only their own entries go on threads from
-// this many items: any split gives the same bits.
-constexpr long kParallelItems = 8192;
 
 // World twist (angular velocity, velocity of the origin) of each root body at v, from the
 // motion subspaces of data (body frame, as the Jacobian's columns); bodies with a parent are
@@ -668,23 +667,33 @@ void TimeStepper::update() {
     u = problem_.localVelocity(c, v);
     if (problem_.rolling) u_rolling = problem_.rollingVelocity(c, v);
   };
-  for (int c = 0; c < n; ++c) {
-    Vector3 u_end, u_start;
-    Vector2 rolling_end = Vector2::Zero(), rolling_start = Vector2::Zero();
-    velocities(c, v_free_, u_end, rolling_end);
-    const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + u_end);
-    stats_.work_normal += P_[c].x() * u_mean.x();
-    stats_.work_tangent += P_[c].tail<2>().dot(u_mean.tail<2>());
-    if (problem_.contact[c] >= 0 && problem_.rolling) {
-      if (packed)
-        velocities(c, v_, u_start, rolling_start);
-      else
-        rolling_start = problem_.rollingVelocity(c, v_);
-      stats_.work_tangent += R_[c].dot(0.5 * (rolling_start + rolling_end));
-    }
-  }
+  // {normal, tangential} work, summed in chunks of rows: the same bits on any thread count
+  using Work = std::array<double, 2>;
+  const Work work = reduceInChunks(
+      n, settings_.threadCount(), Work{0.0, 0.0},
+      [&](long c, Work& sum) {
+        Vector3 u_end, u_start;
+        Vector2 rolling_end = Vector2::Zero(), rolling_start = Vector2::Zero();
+        velocities(c, v_free_, u_end, rolling_end);
+        const Vector3 u_mean = 0.5 * (problem_.velocity_start[c] + u_end);
+        sum[0] += P_[c].x() * u_mean.x();
+        sum[1] += P_[c].tail<2>().dot(u_mean.tail<2>());
+        if (problem_.contact[c] >= 0 && problem_.rolling) {
+          if (packed)
+            velocities(c, v_, u_start, rolling_start);
+          else
+            rolling_start = problem_.rollingVelocity(c, v_);
+          sum[1] += R_[c].dot(0.5 * (rolling_start + rolling_end));
+        }
+      },
+      [](Work& total, const Work& part) {
+        total[0] += part[0];
+        total[1] += part[1];
+      });
+  stats_.work_normal = work[0];
+  stats_.work_tangent = work[1];
   v_ = v_free_;
-  integrate(model_, q_m_, 0.5 * settings_.h * v_, q_);
+  integrate(model_, q_m_, 0.5 * settings_.h * v_, q_, settings_.threadCount());
   normalizeConfiguration(model_, q_);
   t_ += settings_.h;
   stats_.t = t_;
@@ -696,16 +705,28 @@ void TimeStepper::diagnose() {
   stats_.kinetic = kineticEnergy(model_, data_);
   stats_.potential = potentialEnergy(model_, data_);
   evaluateContactGaps(model_, data_, cmodel_, cdata_, t_, end_gap_);
-  stats_.penetration_max = stats_.penetration_sum = 0.0;
-  stats_.penetration_count = 0;
-  const auto penetration = [&](double g) {
-    if (!(g < 0.0)) return;
-    stats_.penetration_max = std::max(stats_.penetration_max, -g);
-    stats_.penetration_sum += -g;
-    ++stats_.penetration_count;
+  struct Penetration {
+    double max = 0.0, sum = 0.0;
+    long count = 0;
+    void add(double g) {
+      if (!(g < 0.0)) return;
+      max = std::max(max, -g);
+      sum += -g;
+      ++count;
+    }
   };
-  for (double g : end_gap_) penetration(g);
-  for (const ConstraintFunction& f : model_.constraints) penetration(f.gap(q_));
+  Penetration total = reduceInChunks(
+      static_cast<long>(end_gap_.size()), settings_.threadCount(), Penetration{},
+      [&](long c, Penetration& part) { part.add(end_gap_[c]); },
+      [](Penetration& sum, const Penetration& part) {
+        sum.max = std::max(sum.max, part.max);
+        sum.sum += part.sum;
+        sum.count += part.count;
+      });
+  for (const ConstraintFunction& f : model_.constraints) total.add(f.gap(q_));
+  stats_.penetration_max = total.max;
+  stats_.penetration_sum = total.sum;
+  stats_.penetration_count = static_cast<int>(total.count);
 }
 
 }  // namespace sweep

@@ -1,0 +1,53 @@
+#pragma once
+
+#include <algorithm>
+#include <vector>
+
+#include "framework/model.hpp"
+
+namespace sweep {
+
+// Loops whose items each write only their own entries run on threads from this many items on:
+// any split of them gives the same bits, and smaller loops do not pay for a parallel region
+// (docs/architecture.md, "Threads are OpenMP").
+constexpr long kParallelItems = 8192;
+
+// visit(c) for each component c with bodies (the trees; systems by their equations, which
+// may call back into an interpreter, are left to the caller), on up to `threads` threads once
+// there are kParallelItems of them: a granular scene, a particle each.
+template <class Visit>
+void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
+  const int count = static_cast<int>(model.components.size() - model.systems.size());
+#pragma omp parallel for schedule(static) \
+    num_threads(threads) if (threads > 1 && count >= kParallelItems)
+  for (int c = 0; c < count; ++c) visit(c);
+}
+
+// Folds add(i, part) over i in [0, n) chunk by chunk (kReduceChunk items each, every part
+// starting from `init`), then combine(total, part) over the chunks in their order, total
+// starting from `init`: the same bits for every thread count, and those of a plain loop when
+// n <= kReduceChunk. The chunks go on threads from kParallelItems items on.
+constexpr long kReduceChunk = 4096;
+template <class T, class Add, class Combine>
+T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combine) {
+  const long chunks = (n + kReduceChunk - 1) / kReduceChunk;
+  T total = init;
+  if (threads <= 1 || n < kParallelItems) {
+    for (long chunk = 0; chunk < chunks; ++chunk) {
+      T part = init;
+      for (long i = chunk * kReduceChunk; i < std::min(n, (chunk + 1) * kReduceChunk); ++i)
+        add(i, part);
+      combine(total, part);
+    }
+    return total;
+  }
+  std::vector<T> parts(chunks, init);
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (long chunk = 0; chunk < chunks; ++chunk)
+    for (long i = chunk * kReduceChunk; i < std::min(n, (chunk + 1) * kReduceChunk); ++i)
+      add(i, parts[chunk]);
+  for (const T& part : parts) combine(total, part);
+  return total;
+}
+
+}  // namespace sweep
