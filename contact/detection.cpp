@@ -363,7 +363,8 @@ void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata,
 // handful of neighbours and is insertion-sorted; a plate's or a wall's holds every grain
 // near it (thousands under a powder layer), where insertion sort was quadratic and took
 // 80 % of detection (docs/powder_bed.md): those runs go to std::sort.
-void sortPairs(int geometries, ContactData& cdata) {
+// Runs are sorted each on its own: on threads, the same order.
+void sortPairs(int geometries, ContactData& cdata, int threads) {
   std::vector<int>& start = cdata.pair_start;
   start.assign(geometries + 1, 0);
   for (const auto& pair : cdata.pairs) ++start[pair.first + 1];
@@ -373,9 +374,11 @@ void sortPairs(int geometries, ContactData& cdata) {
   std::swap(cdata.pairs, cdata.sorted_pairs);
   auto& pairs = cdata.pairs;
   constexpr int kInsertionRun = 32;
-  int run_begin = 0;
+  // after the scatter, start[g] is the end of g's run
+#pragma omp parallel for schedule(dynamic, 1024) num_threads( \
+    threads) if (threads > 1 && pairs.size() >= static_cast <std::size_t>(kParallelItems))
   for (int g = 0; g < geometries; ++g) {
-    const int run_end = start[g];  // after the scatter, start[g] is the end of g's run
+    const int run_begin = g == 0 ? 0 : start[g - 1], run_end = start[g];
     if (run_end - run_begin > kInsertionRun) {
       // a plate's run comes in grain order already
       if (!std::is_sorted(pairs.begin() + run_begin, pairs.begin() + run_end))
@@ -385,7 +388,6 @@ void sortPairs(int geometries, ContactData& cdata) {
         for (int m = k; m > run_begin && pairs[m] < pairs[m - 1]; --m)
           std::swap(pairs[m], pairs[m - 1]);
     }
-    run_begin = run_end;
   }
 }
 
@@ -493,7 +495,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     broadphaseGrid(cmodel, cdata, margins, threads);
   else
     broadphaseFcl(cmodel, cdata, margins);
-  sortPairs(cmodel.size(), cdata);
+  sortPairs(cmodel.size(), cdata, threads);
   cdata.stats = DetectionStats{};
 
   // narrowphase, then identity across steps and frames
@@ -510,33 +512,33 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
     return;
   }
-  // Pairs cut into one run per thread. Each run's contacts are counted first, then written
-  // at their place in the one list, pair by pair through a scratch list that stays in cache:
-  // the same list as one thread's, each contact written once to memory. The list keeps the
-  // elements of two detections ago and constructs only the ones it gains (a cleared list
-  // constructed every element, 60 MB on a wide powder bed, on one thread).
+  // Pairs cut into one run per thread, each into its own list, then the lists copied in
+  // order into the one list, each by its thread: the same list as one thread's. The list
+  // keeps the elements of two detections ago and constructs only the ones it gains (a cleared
+  // list constructed every element, 60 MB on a wide powder bed, on one thread).
   if (cdata.run_contacts.size() < static_cast<std::size_t>(runs)) {
     cdata.run_contacts.resize(runs);
     cdata.run_points.resize(runs);
   }
   std::vector<std::size_t> offset(runs + 1, 0);
   std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
-  auto runPairs = [&](int r, auto&& use) {
-    std::vector<Contact>& scratch = cdata.run_contacts[r];
-    int visited = 0;
-    for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k) {
-      scratch.clear();
-      narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], scratch,
-                      cdata.run_points[r], visited);
-      use(scratch);
-    }
-    broadphase_pairs[r] = visited;
-  };
 #pragma omp parallel num_threads(runs)
   {
 #pragma omp for schedule(static, 1)
-    for (int r = 0; r < runs; ++r)
-      runPairs(r, [&](const std::vector<Contact>& found) { offset[r + 1] += found.size(); });
+    for (int r = 0; r < runs; ++r) {
+      // the run's lists and counts on its own stack while it runs: their headers, side by
+      // side in cdata, share a cache line that every pair would write
+      std::vector<Contact> found = std::move(cdata.run_contacts[r]);
+      std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
+      found.clear();
+      int visited = 0;
+      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k)
+        narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], found, points, visited);
+      broadphase_pairs[r] = visited;
+      offset[r + 1] = found.size();
+      cdata.run_contacts[r] = std::move(found);
+      cdata.run_points[r] = std::move(points);
+    }
 #pragma omp single
     {
       for (int r = 0; r < runs; ++r) offset[r + 1] += offset[r];
@@ -544,10 +546,8 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     }
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-      std::size_t next = offset[r];
-      runPairs(r, [&](const std::vector<Contact>& found) {
-        for (const Contact& c : found) cdata.contacts[next++] = c;
-      });
+      std::copy(cdata.run_contacts[r].begin(), cdata.run_contacts[r].end(),
+                cdata.contacts.begin() + offset[r]);
       matched[r] = matchPrevious(cdata, cmodel.dimension, offset[r], offset[r + 1]);
     }
   }
