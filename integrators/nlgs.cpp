@@ -325,14 +325,25 @@ bool hasRollingRow(const ContactProblem& p, const std::vector<Vector2>* R, int c
 }
 
 // Applies a warm start of the rolling rows; rows without a bound keep none.
+// Row c's rolling torque into v, or cleared where the row has no rolling bound.
+void warmStartRollingRow(const ContactProblem& p, std::vector<Vector2>& R, int c, VectorX& v) {
+  if (p.rolling_bound[c] > 0.0)
+    p.applyRolling(c, R[c], v);
+  else
+    R[c].setZero();
+}
+
 void warmStartRolling(const ContactProblem& p, std::vector<Vector2>* R, VectorX& v) {
   if (R == nullptr || !p.rolling) return;
-  for (int c = 0; c < p.size(); ++c) {
-    if (p.rolling_bound[c] > 0.0)
-      p.applyRolling(c, (*R)[c], v);
-    else
-      (*R)[c].setZero();
-  }
+  for (int c = 0; c < p.size(); ++c) warmStartRollingRow(p, *R, c, v);
+}
+
+// The warm start of rows order[0, count): their impulses into v, then their rolling torques.
+void warmStart(const ContactProblem& p, const std::vector<Vector3>& P, std::vector<Vector2>* R,
+               const int* order, int count, VectorX& v) {
+  for (int k = 0; k < count; ++k) p.applyImpulse(order[k], P[order[k]], v);
+  if (R == nullptr || !p.rolling) return;
+  for (int k = 0; k < count; ++k) warmStartRollingRow(p, *R, order[k], v);
 }
 
 // The stats of a solve over islands: the worst island's sweeps, residual and status.
@@ -492,8 +503,6 @@ NlgsStats solveCoulombNlgs(const ContactProblem& p, const NlgsSettings& settings
                            std::vector<Vector3>& P, VectorX& v, NlgsWorkspace& ws,
                            std::vector<Vector2>* R) {
   NlgsStats total;
-  for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, P[c], v);
-  warmStartRolling(p, R, v);
   if (p.size() == 0) return total;
   prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
@@ -667,8 +676,8 @@ ImpulseArray impulses(std::vector<double>& x) {
 class NncgMomentum {
  public:
   NncgMomentum(const ContactProblem& p, std::initializer_list<ImpulseArray> arrays,
-               const VectorX& v, NlgsWorkspace& ws, int n)
-      : ws_(ws), n_(n) {
+               const VectorX& v, NlgsWorkspace& ws, int n, int threads = 1)
+      : ws_(ws), n_(n), threads_(n >= kParallelMomentum ? threads : 1) {
     for (const ImpulseArray& array : arrays) {
       if (array.data == nullptr) continue;
       arrays_[array_count_++] = array;
@@ -697,8 +706,10 @@ class NncgMomentum {
     } else {
       std::sort(ws.island_dofs.begin(), ws.island_dofs.begin() + dofs_);
     }
-    int slot = 0;
+    const int width = rowWidth();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
     for (int k = 0; k < n; ++k) {
+      int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
         const double* x = arrays_[a].data + ws.order[k] * arrays_[a].width;
         for (int j = 0; j < arrays_[a].width; ++j, ++slot) {
@@ -707,6 +718,7 @@ class NncgMomentum {
         }
       }
     }
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
     for (int i = 0; i < dofs_; ++i) {
       ws.v_before[i] = v[ws.island_dofs[i]];
       ws.v_direction[i] = 0.0;
@@ -725,10 +737,8 @@ class NncgMomentum {
     if (beta > kNncgRestart) beta = 0.0;
     previous_change2_ = change2;
     // element by element: any split between threads gives the same bits
-    int width = 0;
-    for (int a = 0; a < array_count_; ++a) width += arrays_[a].width;
-    const int threads = n_ >= kParallelMomentum ? threads_ : 1;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    const int width = rowWidth();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
     for (int k = 0; k < n_; ++k) {
       int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
@@ -737,15 +747,17 @@ class NncgMomentum {
           advance(beta, x[j], ws_.impulse_before[slot], ws_.impulse_direction[slot]);
       }
     }
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
     for (int i = 0; i < dofs_; ++i)
       advance(beta, v[ws_.island_dofs[i]], ws_.v_before[i], ws_.v_direction[i]);
   }
-  void setThreads(int threads) {
-    threads_ = threads;
-  }
 
  private:
+  int rowWidth() const {
+    int width = 0;
+    for (int a = 0; a < array_count_; ++a) width += arrays_[a].width;
+    return width;
+  }
   // x holds GS(x_k); before holds x_k; direction holds p_{k-1}
   static void advance(double beta, double& x, double& before, double& direction) {
     const double sweep_change = x - before;
@@ -776,12 +788,21 @@ NlgsStats coulombIsland(const ContactProblem& p, const NlgsSettings& settings,
   const bool coloured = n >= settings.parallel_rows && !settings.shuffle && (packed || packed3d) &&
                         p.row_components.size() == static_cast<std::size_t>(p.size()) &&
                         ws.row_colour.size() >= static_cast<std::size_t>(n);
-  if (coloured) colourIsland(p, ws, n);
-  std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg) {
-    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n);
-    momentum->setThreads(coloured ? settings.threads : 1);
+  // the warm start of the island's rows (the other islands move other velocities): a
+  // coloured island's chunk by chunk, as its sweeps go
+  if (coloured) {
+    colourIsland(p, ws, n);
+    forEachColourChunk(ws, settings.threads, [&](int chunk) {
+      const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
+      warmStart(p, P, R, ws.order.data() + first, last - first, v);
+    });
+  } else {
+    warmStart(p, P, R, ws.order.data(), n, v);
   }
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n,
+                     coloured ? settings.threads : 1);
   const PackedRows3d rows3d(p);
   // one chunk of a coloured sweep, its sums kept apart
   const auto sweepChunk = [&](int chunk) {

@@ -542,8 +542,27 @@ void TimeStepper::keepImpulses() {
 }
 
 double TimeStepper::metricKinetic(const VectorX& v) {
-  applyMass(model_, data_, v, mass_times_v_);
-  return 0.5 * v.dot(mass_times_v_);
+  // v_c^T M_c v_c per tree, summed in fixed chunks of trees (the same bits on any thread
+  // count), without a temporary: a free body's block as a fixed-size 6 x 6
+  auto quadratic = [&](int c) {
+    const Component& comp = model_.components[c];
+    const MatrixX& M = data_.mass_blocks[c];
+    if (comp.nv == 6) {
+      const auto v_c = v.segment<6>(comp.v_index);
+      return v_c.dot(Eigen::Map<const Matrix6>(M.data()) * v_c);
+    }
+    const auto v_c = v.segment(comp.v_index, comp.nv);
+    double sum = 0.0;
+    for (int j = 0; j < comp.nv; ++j) sum += v_c[j] * M.col(j).dot(v_c);
+    return sum;
+  };
+  const int trees = static_cast<int>(model_.components.size() - model_.systems.size());
+  double twice = reduceInChunks(
+      trees, settings_.threadCount(), 0.0,
+      [&](long c, double& sum) { sum += quadratic(static_cast<int>(c)); },
+      [](double& total, double part) { total += part; });
+  for (int c = trees; c < static_cast<int>(model_.components.size()); ++c) twice += quadratic(c);
+  return 0.5 * twice;
 }
 
 void TimeStepper::solveMoreauJean() {

@@ -225,7 +225,6 @@ class TimeStepper {
   bool constraint_friction_ = false;  // a constraint by functions has friction: 5b runs
   std::vector<StagedImpulse> limit_staged_start_;
   VectorX v_predicted_;
-  VectorX mass_times_v_;
   double metricKinetic(const VectorX& v);  // 1/2 v^T M(q_m) v
 };
 
