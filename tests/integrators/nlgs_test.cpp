@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -937,6 +938,58 @@ TEST(Relaxation, ARowThatOpensOpensAtOnce) {
   }
   EXPECT_GT(open_rows[0], 0);
   EXPECT_GT(open_rows[1], open_rows[0] / 2) << open_rows[0];
+}
+
+// Components without dofs (fixed trees) can outnumber the velocities, and rows then name
+// components numbered past nv. The coloured sweeps colour blocks of rows by the components
+// they move: renumbered past nv, the same rows give the same bits, on one thread and on two.
+// A workspace prepared without the component count sweeps the blocks it cannot colour on one
+// thread: the same bits on one thread and two, and a converged solve.
+TEST(ColouredSweeps, ComponentsNumberedPastTheVelocities) {
+  const test::SettledProblem heap = test::settledPile(300, 400, NormalLaw::Vel);
+  const ContactProblem& p = heap.step.problem;
+  const int n = p.size(), nv = heap.scene.model.nv;
+  const int components = static_cast<int>(heap.scene.model.components.size());
+  ASSERT_GT(n, 2 * 128);  // more than one block of the colouring
+  ASSERT_EQ(static_cast<int>(p.row_components.size()), n);
+  const int offset = 4 * nv;
+  ContactProblem shifted = p;
+  for (std::array<int, 2>& moved : shifted.row_components)
+    for (int& comp : moved)
+      if (comp >= 0) comp += offset;
+  NlgsSettings solver;
+  solver.parallel_rows = 16;
+  solver.max_iterations = 2000;
+  solver.tolerance = 1e-4;
+  solver.acceleration = NlgsAcceleration::Nncg;
+  auto solve = [&](const ContactProblem& problem, int threads, int prepared_components,
+                   NlgsStats* stats = nullptr) {
+    NlgsWorkspace ws;
+    ws.prepare(n, nv, prepared_components);
+    solver.threads = threads;
+    std::vector<Vector3> P(n, Vector3::Zero());
+    std::vector<Vector2> R(n, Vector2::Zero());
+    VectorX v = heap.step.v_free;
+    const NlgsStats result =
+        solveCoulombNlgs(problem, solver, P, v, ws, problem.rolling ? &R : nullptr);
+    if (stats != nullptr) *stats = result;
+    return v;
+  };
+  NlgsStats stats;
+  const VectorX reference = solve(p, 1, components, &stats);
+  EXPECT_EQ(stats.status, SolverStatus::Converged);
+  EXPECT_TRUE(solve(shifted, 1, components + offset) == reference);
+  EXPECT_TRUE(solve(shifted, 2, components + offset) == reference);
+  // masks for nv components only: the blocks past them go to the one-thread colour
+  const VectorX partial = solve(shifted, 2, 0, &stats);
+  EXPECT_EQ(stats.status, SolverStatus::Converged);
+  EXPECT_TRUE(partial == solve(shifted, 1, 0));
+  // and the uncoloured sweep reaches the same velocities at the tolerance
+  solver.parallel_rows = 1 << 30;
+  const VectorX uncoloured = solve(p, 1, components);
+  const double scale = (reference - heap.step.v_free).norm();
+  EXPECT_LT((partial - uncoloured).norm(), 1e-6 * scale);
+  EXPECT_FALSE(uncoloured == reference);  // the coloured order is another order
 }
 
 TEST(NncgAcceleration, OneSweepIsPlainGaussSeidel) {
