@@ -144,10 +144,15 @@ VectorX velocityFromBodyFrame(const Model& model, const VectorX& q, const Vector
   return rotateFloatingLinear(model, q, v_body, false);
 }
 
-void normalizeConfiguration(const Model& model, VectorX& q) {
-  for (const Body& b : model.bodies)
-    if (b.joint.type == JointType::Floating)
-      storeQuaternion(quaternionAt(q, b.q_index).normalized(), q, b.q_index);
+void normalizeConfiguration(const Model& model, VectorX& q, int threads) {
+  forEachBodyComponent(model, threads, [&](int c) {
+    const Component& comp = model.components[c];
+    for (int i = comp.first_body; i < comp.end_body; ++i) {
+      const Body& b = model.bodies[i];
+      if (b.joint.type == JointType::Floating)
+        storeQuaternion(quaternionAt(q, b.q_index).normalized(), q, b.q_index);
+    }
+  });
 }
 
 }  // namespace sweep

@@ -19,8 +19,8 @@ VectorX difference(const Model& model, const VectorX& q0, const VectorX& q1);
 // qdot as a function of (q, v): the quaternion rate is 1/2 quat * (0, w_body).
 void configurationRate(const Model& model, const VectorX& q, const VectorX& v, VectorX& qdot);
 
-// Renormalizes every quaternion of q in place.
-void normalizeConfiguration(const Model& model, VectorX& q);
+// Renormalizes every quaternion of q in place (threads: as integrate's).
+void normalizeConfiguration(const Model& model, VectorX& q, int threads = 1);
 
 // Floating joints' velocities between Sweep's convention (linear velocity of the body origin
 // in the parent frame, angular velocity in body axes) and the body-frame twist of Pinocchio's

@@ -425,6 +425,8 @@ void TimeStepper::assembleProblem() {
   // contacts
   P_.assign(n, Vector3::Zero());
   R_.assign(problem_.rolling ? n : 0, Vector2::Zero());
+#pragma omp parallel for schedule(static) \
+    num_threads(settings_.threadCount()) if (n >= kParallelItems)
   for (int c = 0; c < n; ++c) {
     const int id = problem_.contact[c];
     if (id < 0) {
@@ -525,7 +527,11 @@ void TimeStepper::keepImpulses() {
   // a joint limit or constraint out of this solve carries nothing (they are never deferred)
   std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
   std::fill(constraint_impulse_.begin(), constraint_impulse_.end(), Vector3::Zero());
-  for (int c = 0; c < problem_.size(); ++c) {
+  // rows name distinct contacts, limits and constraints: each writes its own entries
+  const int n = problem_.size();
+#pragma omp parallel for schedule(static) \
+    num_threads(settings_.threadCount()) if (n >= kParallelItems)
+  for (int c = 0; c < n; ++c) {
     const int id = problem_.contact[c];
     if (id < 0) {
       const int m = -1 - id, limits = static_cast<int>(model_.limits.size());
@@ -713,7 +719,7 @@ void TimeStepper::update() {
   stats_.work_tangent = work[1];
   v_ = v_free_;
   integrate(model_, q_m_, 0.5 * settings_.h * v_, q_, settings_.threadCount());
-  normalizeConfiguration(model_, q_);
+  normalizeConfiguration(model_, q_, settings_.threadCount());
   t_ += settings_.h;
   stats_.t = t_;
   stats_.t_update = seconds(start);
