@@ -108,9 +108,6 @@ double ballClosingSpeed(const Model& model, const Data& data, const ContactModel
                         double t) {
   // A ball's surface moves with its centre whatever it spins, so the centres' velocities
   // bound every gap between two balls; any common velocity u drops out of their differences.
-  Vector3 low = Vector3::Constant(std::numeric_limits<double>::infinity());
-  Vector3 high = -low;
-  double fastest = 0.0;
   auto centreVelocity = [&](int i) -> Vector3 {
     const Geometry& g = cmodel.geometries[i];
     const BodyRef& body = cmodel.traits[i].body_ref;
@@ -131,8 +128,9 @@ double ballClosingSpeed(const Model& model, const Data& data, const ContactModel
     Vector3 low, high;
     double fastest;
   };
-  const Bounds bounds = reduceInChunks(
-      cmodel.size(), data.threads, Bounds{low, high, fastest},
+  const Vector3 none = Vector3::Constant(std::numeric_limits<double>::infinity());
+  const auto [low, high, fastest] = reduceInChunks(
+      cmodel.size(), data.threads, Bounds{none, -none, 0.0},
       [&](long i, Bounds& part) {
         if (!(cmodel.traits[i].ball_radius > 0.0)) return;
         const Vector3 c = centreVelocity(static_cast<int>(i));
@@ -145,9 +143,6 @@ double ballClosingSpeed(const Model& model, const Data& data, const ContactModel
         total.high = total.high.cwiseMax(part.high);
         total.fastest = std::max(total.fastest, part.fastest);
       });
-  low = bounds.low;
-  high = bounds.high;
-  fastest = bounds.fastest;
   if (!(low.x() <= high.x())) return 0.0;  // no balls
   const double spread = 0.5 * (high - low).norm();
   // a non-finite spread compares false and leaves the absolute bound, as fastestShapeSpeed
@@ -374,9 +369,9 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
   std::swap(cdata.pairs, cdata.sorted_pairs);
   auto& pairs = cdata.pairs;
   constexpr int kInsertionRun = 32;
+  const bool parallel = threads > 1 && pairs.size() >= static_cast<std::size_t>(kParallelItems);
   // after the scatter, start[g] is the end of g's run
-#pragma omp parallel for schedule(dynamic, 1024) num_threads( \
-    threads) if (threads > 1 && pairs.size() >= static_cast <std::size_t>(kParallelItems))
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads) if (parallel)
   for (int g = 0; g < geometries; ++g) {
     const int run_begin = g == 0 ? 0 : start[g - 1], run_end = start[g];
     if (run_end - run_begin > kInsertionRun) {

@@ -30,19 +30,11 @@ Vector3 centerOfMass(const Model& model, Data& data, const VectorX& q) {
   return moment / mass;
 }
 
-namespace {
-void add(double& total, double part) {
-  total += part;
-}
-}  // namespace
-
 double kineticEnergy(const Model& model, const Data& data) {
-  double energy = reduceInChunks(
-      static_cast<long>(model.bodies.size()), data.threads, 0.0,
-      [&](long i, double& sum) {
+  double energy =
+      sumInChunks(static_cast<long>(model.bodies.size()), data.threads, [&](long i, double& sum) {
         sum += 0.5 * data.velocity[i].dot(model.bodies[i].inertia.apply(data.velocity[i]));
-      },
-      add);
+      });
   for (std::size_t c = 0; c < model.components.size(); ++c) {
     const Component& comp = model.components[c];
     if (comp.system < 0) continue;
@@ -53,13 +45,11 @@ double kineticEnergy(const Model& model, const Data& data) {
 }
 
 double potentialEnergy(const Model& model, const Data& data) {
-  double energy = reduceInChunks(
-      static_cast<long>(model.bodies.size()), data.threads, 0.0,
-      [&](long i, double& sum) {
+  double energy =
+      sumInChunks(static_cast<long>(model.bodies.size()), data.threads, [&](long i, double& sum) {
         const Inertia& inertia = model.bodies[i].inertia;
         sum -= inertia.mass * model.gravity.dot(data.world_pose[i].apply(inertia.com));
-      },
-      add);
+      });
   for (const Component& comp : model.components)
     if (comp.system >= 0 && model.systems[comp.system].potential)
       energy += model.systems[comp.system].potential(data.q.segment(comp.q_index, comp.nq));

@@ -50,4 +50,10 @@ T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combin
   return total;
 }
 
+// reduceInChunks for one sum: add(i, sum) adds item i's terms to sum
+template <class Add>
+double sumInChunks(long n, int threads, Add&& add) {
+  return reduceInChunks(n, threads, 0.0, add, [](double& total, double part) { total += part; });
+}
+
 }  // namespace sweep

@@ -563,10 +563,8 @@ double TimeStepper::metricKinetic(const VectorX& v) {
     return sum;
   };
   const int trees = static_cast<int>(model_.components.size() - model_.systems.size());
-  double twice = reduceInChunks(
-      trees, settings_.threadCount(), 0.0,
-      [&](long c, double& sum) { sum += quadratic(static_cast<int>(c)); },
-      [](double& total, double part) { total += part; });
+  double twice = sumInChunks(trees, settings_.threadCount(),
+                             [&](long c, double& sum) { sum += quadratic(static_cast<int>(c)); });
   for (int c = trees; c < static_cast<int>(model_.components.size()); ++c) twice += quadratic(c);
   return 0.5 * twice;
 }
