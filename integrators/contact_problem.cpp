@@ -324,11 +324,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
       c = ws.component_parent[c] = ws.component_parent[ws.component_parent[c]];
     return c;
   };
+  auto join = [&](int first, int second) {
+    const int a = root(first), b = root(second);
+    if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+  };
   auto joinComponents = [&](const std::vector<int>& touched) {
-    for (int comp : touched) {
-      const int a = root(touched.front()), b = root(comp);
-      if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
-    }
+    for (int comp : touched) join(touched.front(), comp);
   };
   // The components that entries [first, first + count) of dofs move, in order of first
   // appearance, into touched; returns whether every entry's dof has a diagonal constant
@@ -523,7 +524,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   // powder bed this skips three copies of every row (Jacobian, H entries, packing).
   auto bodyFormRow = [&](int pc, const Contact& contact, std::vector<int>& touched) {
     p.diagonal[pc] = 1;
-    p.row_sphere[pc] = -1;
     // filled in place: a record is six cache lines, and a copy of it cost as much as the fill
     ContactProblem::PackedBodies3d& b = p.bodies3d[p.row_body_form[pc]];
     b = ContactProblem::PackedBodies3d{};
@@ -581,7 +581,6 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   // side's signed lever along the normal and its axes R^T t1, R^T t2, written in place.
   auto sphereRow = [&](int pc, const Contact& contact, std::vector<int>& touched) {
     p.diagonal[pc] = 1;
-    p.row_body_form[pc] = -1;
     ContactProblem::PackedSphere3d& s = p.spheres3d[p.row_sphere[pc]];
     s = ContactProblem::PackedSphere3d{};
     Vector3 known = Vector3::Zero();
@@ -820,9 +819,7 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
   const int n = p.size();
   for (int c = 0; c < n; ++c) {
     const std::array<int, 2>& moved = p.row_components[c];
-    if (moved[0] < 0 || moved[1] < 0) continue;
-    const int a = root(moved[0]), b = root(moved[1]);
-    if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+    if (moved[0] >= 0 && moved[1] >= 0) join(moved[0], moved[1]);
   }
 
   // islands numbered in order of their first row: deterministic
