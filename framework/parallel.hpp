@@ -28,8 +28,11 @@ void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
 // starting from `init`: the same bits for every thread count, and those of a plain loop when
 // n <= kReduceChunk. The chunks go on threads from kParallelItems items on.
 constexpr long kReduceChunk = 4096;
+// `parts` keeps the chunks' parts (no allocation once its capacity suffices: for the loops
+// inside a solver's iterations).
 template <class T, class Add, class Combine>
-T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combine) {
+T reduceInChunks(long n, int threads, const T& init, std::vector<T>& parts, Add&& add,
+                 Combine&& combine) {
   const long chunks = (n + kReduceChunk - 1) / kReduceChunk;
   T total = init;
   if (threads <= 1 || n < kParallelItems) {
@@ -41,7 +44,7 @@ T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combin
     }
     return total;
   }
-  std::vector<T> parts(chunks, init);
+  parts.assign(chunks, init);
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (long chunk = 0; chunk < chunks; ++chunk)
     for (long i = chunk * kReduceChunk; i < std::min(n, (chunk + 1) * kReduceChunk); ++i)
@@ -49,11 +52,30 @@ T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combin
   for (const T& part : parts) combine(total, part);
   return total;
 }
+template <class T, class Add, class Combine>
+T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combine) {
+  std::vector<T> parts;
+  return reduceInChunks(n, threads, init, parts, add, combine);
+}
+
+// body(i) for i in [0, n), on up to `threads` threads from kParallelItems items on: for loops
+// whose items write only their own entries.
+template <class Body>
+void forEachIndex(long n, int threads, Body&& body) {
+#pragma omp parallel for schedule(static) \
+    num_threads(threads) if (threads > 1 && n >= kParallelItems)
+  for (long i = 0; i < n; ++i) body(i);
+}
 
 // reduceInChunks for one sum: add(i, sum) adds item i's terms to sum
 template <class Add>
 double sumInChunks(long n, int threads, Add&& add) {
   return reduceInChunks(n, threads, 0.0, add, [](double& total, double part) { total += part; });
+}
+template <class Add>
+double sumInChunks(long n, int threads, std::vector<double>& parts, Add&& add) {
+  return reduceInChunks(n, threads, 0.0, parts, add,
+                        [](double& total, double part) { total += part; });
 }
 
 }  // namespace sweep

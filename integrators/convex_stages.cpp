@@ -23,6 +23,7 @@ MprgpSettings mprgpSettings(const NlgsSettings& settings) {
   MprgpSettings s;
   s.max_iterations = settings.max_iterations;
   s.tolerance = settings.tolerance;
+  s.threads = settings.threads;
   return s;
 }
 

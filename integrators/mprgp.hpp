@@ -105,6 +105,7 @@ struct MprgpSettings {
   int max_iterations = 1500;
   double tolerance = 1e-6;
   double gamma = 1.0;  // proportioning constant Gamma
+  int threads = 1;     // for the products and factorizations that split without changing bits
 };
 
 struct MprgpStats {

@@ -1,11 +1,16 @@
 #include "integrators/projected_newton.hpp"
 
 #include <cholmod.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
+#include <queue>
 #include <utility>
+
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -34,12 +39,20 @@ constexpr char kFree = 0, kLower = 1, kUpper = 2;
 // CHOLMOD's simplicial factorization of a matrix with a permutation would build a transposed,
 // permuted copy every time (an allocation inside the solver's iterations and, measured, 7 % of
 // the 500-disk funnel's run). A pattern equal to the last one's reuses all of it.
+//
+// On threads, the factorization is CHOLMOD's own up-looking one (cholmod_rowfac), split along
+// the elimination tree: row k of L reads only the rows of k's descendants, so disjoint subtrees
+// are factorized at once, each on its own thread with its own CHOLMOD workspace, and the rows
+// above them (the tree's top) after, on one thread. Each row is computed by the same arithmetic
+// as in the one-thread factorization, from the same rows before it: the factor has the same
+// bits for every thread count. The subtrees are chosen as Geist & Ng's (1989, "Task scheduling
+// for parallel sparse Cholesky factorization", Int. J. Parallel Program. 18): the heaviest one
+// split into its children until they pack evenly onto the threads (work: each row's
+// multiply-adds, counted on the elimination tree).
 class SparseCholesky {
  public:
   SparseCholesky() {
-    cholmod_start(&common_);
-    common_.print = 0;
-    common_.error_handler = nullptr;
+    start(common_);
     // the matrix given to cholmod_analyze is already in AMD order; no postorder, which would
     // permute it again
     common_.nmethods = 1;
@@ -56,19 +69,22 @@ class SparseCholesky {
     cholmod_free_dense(&y_, &common_);
     cholmod_free_dense(&e_, &common_);
     cholmod_finish(&common_);
+    for (cholmod_common& c : thread_common_) cholmod_finish(&c);
   }
   SparseCholesky(const SparseCholesky&) = delete;
   SparseCholesky& operator=(const SparseCholesky&) = delete;
 
   void release() {
     if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
+    requested_threads_ = 0;
+    scheduled_threads_ = 1;
   }
 
   // The ordering (AMD, on A + A^T) and the symbolic factorization of the n x n matrix whose
   // lower triangle has the compressed columns (begin, row), rows sorted; kept when the
-  // pattern is the last one's.
-  bool analyze(int n, const std::vector<int>& begin, const std::vector<int>& row) {
-    if (factor_ != nullptr && n == n_ && begin == begin_ && row == row_) return true;
+  // pattern is the last one's. The split for `threads` threads is made here too.
+  bool analyze(int n, const std::vector<int>& begin, const std::vector<int>& row, int threads) {
+    if (factor_ != nullptr && n == n_ && begin == begin_ && row == row_) return schedule(threads);
     release();
     n_ = n;
     begin_ = begin;
@@ -104,14 +120,55 @@ class SparseCholesky {
     upper_value_.assign(entries, 0.0);
     upper_ = view(n, upper_begin_, upper_row_, upper_value_.data(), 1);
     factor_ = cholmod_analyze(&upper_, &common_);
-    return factor_ != nullptr && common_.status == CHOLMOD_OK &&
-           factor_->ordering == CHOLMOD_NATURAL;
+    if (factor_ == nullptr || common_.status != CHOLMOD_OK || factor_->ordering != CHOLMOD_NATURAL)
+      return false;
+    parent_.resize(n);
+    if (!cholmod_etree(&upper_, parent_.data(), &common_)) return false;
+    return schedule(threads);
   }
   // the numeric factorization of the matrix with these values (in the order of `row`)
   bool factorize(const std::vector<double>& value) {
     for (std::size_t e = 0; e < value.size(); ++e) upper_value_[to_upper_[e]] = value[e];
-    const int ok = cholmod_factorize(&upper_, factor_, &common_);
-    return ok && common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
+    if (scheduled_threads_ <= 1) {
+      const int ok = cholmod_factorize(&upper_, factor_, &common_);
+      return ok && common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
+    }
+    // as cholmod_factorize's simplicial branch: a symbolic factor becomes the identity, a
+    // numeric one is emptied (rowfac resets it only for a whole factorization)
+    if (factor_->xtype == CHOLMOD_PATTERN) {
+      factor_->is_ll = 0;
+      if (!cholmod_change_factor(CHOLMOD_REAL, 0, 0, 0, 1, factor_, &common_)) return false;
+    } else {
+      factor_->minor = factor_->n;
+      int* column_count = static_cast<int*>(factor_->nz);
+      std::fill(column_count, column_count + n_, 1);
+    }
+    double beta[2] = {0.0, 0.0};
+    // row 0 (a leaf) first and alone: rowfac called from row 0 to row n would reset the whole
+    // factor, under the other threads' feet
+    if (!cholmod_rowfac(&upper_, nullptr, beta, 0, 1, factor_, &common_)) return false;
+    bool ok = factor_->minor == factor_->n;
+    const int threads = scheduled_threads_;
+#pragma omp parallel num_threads(threads) reduction(&& : ok)
+    {
+      // chain by chain, however many threads the runtime gives
+      for (int chain = omp_get_thread_num(); chain < threads; chain += omp_get_num_threads()) {
+        if (chain_start_[chain] >= n_) continue;
+        // a copy of the factor's header: rowfac records a zero pivot in its `minor`, which the
+        // threads would otherwise share; the arrays are shared, each chain's rows write only
+        // the columns of its own subtrees
+        cholmod_factor own = *factor_;
+        ok = cholmod_rowfac_mask(&upper_, nullptr, beta, chain_start_[chain], n_, nullptr,
+                                 link_.data(), &own, &thread_common_[chain]) &&
+             own.minor == own.n && ok;
+      }
+    }
+    if (!ok) return false;
+    if (chain_start_[threads] < n_ &&
+        !cholmod_rowfac_mask(&upper_, nullptr, beta, chain_start_[threads], n_, nullptr,
+                             link_.data(), factor_, &common_))
+      return false;
+    return common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
   }
   // solution = A^-1 rhs
   bool solve(const std::vector<double>& rhs, std::vector<double>& solution) {
@@ -133,6 +190,146 @@ class SparseCholesky {
   }
 
  private:
+  // factorizations with fewer rows stay on one thread: the split would cost more than it gains
+  static constexpr int kParallelRows = 4096;
+  // subtrees are packed onto threads once the heaviest is within this factor of a thread's share
+  static constexpr double kBalance = 1.05;
+  // packings tried at most (each O(subtrees log subtrees))
+  static constexpr int kMaxPackings = 64;
+  // a split is used when its estimated time is below this fraction of one thread's
+  static constexpr double kWorthwhile = 0.9;
+
+  static void start(cholmod_common& common) {
+    cholmod_start(&common);
+    common.print = 0;
+    common.error_handler = nullptr;
+  }
+
+  // The rows each thread factorizes (chains through link_, from chain_start_[t]; the top's
+  // chain from chain_start_[threads]), each chain in increasing row order. One thread, or a
+  // split that leaves no two subtrees, factorizes as CHOLMOD does (scheduled_threads_ = 1).
+  bool schedule(int threads) {
+    threads = std::max(1, threads);
+    if (threads == requested_threads_) return true;
+    requested_threads_ = threads;
+    scheduled_threads_ = 1;
+    if (threads == 1 || n_ < kParallelRows) return true;
+    const int n = n_;
+    // Each row's work in the up-looking factorization: for each entry L(k, i) of its row, the
+    // entries column i holds so far. The rows' patterns come from the elimination tree (the
+    // row subtrees, as rowfac finds them): O(entries of L), a fraction of one factorization.
+    subtree_work_.assign(n, 0.0);
+    {
+      std::vector<int>& held = fill_;  // entries of each column so far (fill_ is free now)
+      std::vector<int>& mark = child_;
+      held.assign(n, 0);
+      mark.assign(n, -1);
+      for (int k = 0; k < n; ++k) {
+        mark[k] = k;
+        double work = 1.0;
+        for (int e = upper_begin_[k]; e < upper_begin_[k + 1]; ++e)
+          for (int i = upper_row_[e]; i >= 0 && i < k && mark[i] != k; i = parent_[i]) {
+            mark[i] = k;
+            work += ++held[i];
+          }
+        subtree_work_[k] = work;
+      }
+    }
+    // subtree work, children lists (parent_[j] > j: one pass upwards)
+    child_begin_.assign(n + 2, 0);
+    for (int j = 0; j < n; ++j) {
+      if (parent_[j] >= 0) {
+        subtree_work_[parent_[j]] += subtree_work_[j];
+        ++child_begin_[parent_[j] + 1];
+      } else {
+        ++child_begin_[n + 1];  // roots, listed as the children of a virtual node n
+      }
+    }
+    for (int j = 0; j <= n; ++j) child_begin_[j + 1] += child_begin_[j];
+    child_.resize(n);
+    {
+      std::vector<int>& next = fill_;  // reused: the analysis is done with it
+      next.assign(child_begin_.begin(), child_begin_.end() - 1);
+      for (int j = 0; j < n; ++j) child_[next[parent_[j] >= 0 ? parent_[j] : n]++] = j;
+    }
+    // Geist & Ng: split the heaviest subtree (its root joins the top) while it exceeds a
+    // thread's share; from there on, pack the subtrees onto the threads (the longest first, each
+    // to the least loaded thread) and keep the split whose estimated time, the top's work plus
+    // the most loaded thread's, is least; stop once the top alone costs more
+    using Item = std::pair<double, int>;
+    std::priority_queue<Item> heap;
+    double total = 0.0;  // the work in the heap's subtrees
+    for (int e = child_begin_[n]; e < child_begin_[n + 1]; ++e) {
+      heap.push({subtree_work_[child_[e]], child_[e]});
+      total += subtree_work_[child_[e]];
+    }
+    const double all = total;
+    double best_time = all;
+    best_roots_.clear();
+    best_owner_.clear();
+    for (int packings = 0; !heap.empty() && packings < kMaxPackings && all - total < best_time;) {
+      const Item top = heap.top();
+      if (top.first * threads <= total * kBalance) {
+        ++packings;
+        std::priority_queue<Item> copy = heap;
+        load_.assign(threads, 0.0);
+        packed_roots_.clear();
+        packed_owner_.clear();
+        while (!copy.empty()) {
+          const int t =
+              static_cast<int>(std::min_element(load_.begin(), load_.end()) - load_.begin());
+          load_[t] += copy.top().first;
+          packed_roots_.push_back(copy.top().second);
+          packed_owner_.push_back(t);
+          copy.pop();
+        }
+        const double time = all - total + *std::max_element(load_.begin(), load_.end());
+        if (time < best_time) {
+          best_time = time;
+          best_roots_.swap(packed_roots_);
+          best_owner_.swap(packed_owner_);
+        }
+      }
+      const int root = top.second;
+      if (child_begin_[root + 1] == child_begin_[root]) break;  // a leaf: nothing to split
+      heap.pop();
+      total -= top.first;
+      for (int e = child_begin_[root]; e < child_begin_[root + 1]; ++e) {
+        heap.push({subtree_work_[child_[e]], child_[e]});
+        total += subtree_work_[child_[e]];
+      }
+    }
+    // a split worth its threads: a tenth off the time at least
+    if (best_time > kWorthwhile * all) return true;
+    // owners downwards: a chosen root's subtree is its thread's, every other row the top's
+    owner_.assign(n, -2);
+    for (std::size_t r = 0; r < best_roots_.size(); ++r) owner_[best_roots_[r]] = best_owner_[r];
+    for (int j = n - 1; j >= 0; --j)
+      if (owner_[j] == -2) owner_[j] = parent_[j] >= 0 ? owner_[parent_[j]] : -1;
+    // the chains, in increasing row order (descendants before ancestors)
+    chain_start_.assign(threads + 1, n);
+    link_.assign(n, n);
+    std::vector<int> last(threads + 1, -1);
+    for (int j = 1; j < n; ++j) {  // row 0 is factorized alone, before the chains
+      const int chain = owner_[j] >= 0 ? owner_[j] : threads;
+      if (last[chain] < 0)
+        chain_start_[chain] = j;
+      else
+        link_[last[chain]] = j;
+      last[chain] = j;
+    }
+    // each thread's own workspace, sized here, outside the factorizations
+    while (static_cast<int>(thread_common_.size()) < threads) {
+      thread_common_.emplace_back();
+      start(thread_common_.back());
+    }
+    for (int t = 0; t < threads; ++t)
+      if (!cholmod_allocate_work(n, n, n, &thread_common_[t])) return false;
+    if (!cholmod_allocate_work(n, n, n, &common_)) return false;
+    scheduled_threads_ = threads;
+    return true;
+  }
+
   // a CHOLMOD view of compressed columns (values null: the pattern alone)
   static cholmod_sparse view(int n, std::vector<int>& begin, std::vector<int>& row, double* value,
                              int stype) {
@@ -161,6 +358,13 @@ class SparseCholesky {
   cholmod_sparse upper_{};
   cholmod_factor* factor_ = nullptr;
   cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
+  // the split over threads (schedule)
+  int requested_threads_ = 0;  // the thread count the split was made for (0: none yet)
+  int scheduled_threads_ = 1;  // the threads it uses
+  std::vector<int> parent_, child_begin_, child_, owner_, chain_start_, link_;
+  std::vector<int> best_roots_, best_owner_, packed_roots_, packed_owner_;
+  std::vector<double> subtree_work_, load_;
+  std::deque<cholmod_common> thread_common_;  // a deque: started commons must not move
 };
 
 ProjectedNewtonWorkspace::ProjectedNewtonWorkspace() = default;
@@ -225,36 +429,58 @@ void formProduct(ProjectedNewtonWorkspace& ws, int n, int velocities) {
     }
     ws.a_begin.push_back(static_cast<int>(ws.a_row.size()));
   }
-}
-
-// y = A x + b from the lower triangle
-void gradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
-              std::vector<double>& y) {
-  const int n = static_cast<int>(x.size());
-  std::copy(ws.b.begin(), ws.b.end(), y.begin());
+  // A by rows: row i is column i's entries left of the diagonal, then its own; walking the
+  // columns in order appends each row's entries in increasing column order
+  ws.full_begin.assign(n + 1, 0);
+  for (int j = 0; j < n; ++j)
+    for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
+      ++ws.full_begin[ws.a_row[e] + 1];
+      if (ws.a_row[e] != j) ++ws.full_begin[j + 1];
+    }
+  for (int i = 0; i < n; ++i) ws.full_begin[i + 1] += ws.full_begin[i];
+  const int entries = ws.full_begin[n];
+  ws.full_column.resize(entries);
+  ws.full_value.resize(entries);
+  ws.touched.assign(ws.full_begin.begin(), ws.full_begin.end() - 1);  // fill positions
   for (int j = 0; j < n; ++j)
     for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
       const int i = ws.a_row[e];
-      const double a = ws.a_value[e];
-      y[i] += a * x[j];
-      if (i != j) y[j] += a * x[i];
+      int slot = ws.touched[i]++;
+      ws.full_column[slot] = j;
+      ws.full_value[slot] = ws.a_value[e];
+      if (i == j) continue;
+      slot = ws.touched[j]++;
+      ws.full_column[slot] = i;
+      ws.full_value[slot] = ws.a_value[e];
     }
+}
+
+// y = A x + b, row by row on threads: each y_i summed over its row in increasing column order,
+// the order of a product over the lower triangle by columns, whatever the thread count
+void gradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
+              std::vector<double>& y, int threads) {
+  forEachIndex(static_cast<long>(x.size()), threads, [&](long i) {
+    double sum = ws.b[i];
+    for (int e = ws.full_begin[i]; e < ws.full_begin[i + 1]; ++e)
+      sum += ws.full_value[e] * x[ws.full_column[e]];
+    y[i] = sum;
+  });
 }
 
 // f = 1/2 x^T A x + b^T x from g = A x + b
 double objective(const std::vector<double>& x, const std::vector<double>& g,
-                 const std::vector<double>& b) {
-  double f = 0.0;
-  for (std::size_t i = 0; i < x.size(); ++i) f += 0.5 * x[i] * (g[i] + b[i]);
-  return f;
+                 ProjectedNewtonWorkspace& ws, int threads) {
+  return sumInChunks(static_cast<long>(x.size()), threads, ws.sum_parts,
+                     [&](long i, double& f) { f += 0.5 * x[i] * (g[i] + ws.b[i]); });
 }
 
 // the variables of blocks on a bound that the gradient pushes outwards (eps: the margin)
 void markBinding(const SeparableSet& set, const std::vector<double>& x,
-                 const std::vector<double>& g, double eps, std::vector<char>& binding) {
-  for (int b = 0; b < set.blocks(); ++b) {
+                 const std::vector<double>& g, double eps, std::vector<char>& binding,
+                 int threads) {
+  forEachIndex(set.blocks(), threads, [&](long b) {
     const int i = set.first[b];
-    switch (effectiveSet(set, b)) {
+    switch (effectiveSet(set, static_cast<int>(b))) {
       case BlockSet::Fixed:
         for (int k = 0; k < set.size[b]; ++k) binding[i + k] = 1;
         break;
@@ -270,7 +496,43 @@ void markBinding(const SeparableSet& set, const std::vector<double>& x,
         break;
       }
     }
-  }
+  });
+}
+
+// x projected onto the set, block by block
+void projectOnThreads(const SeparableSet& set, std::vector<double>& x, int threads) {
+  forEachIndex(set.blocks(), threads,
+               [&](long b) { projectBlock(set, static_cast<int>(b), x.data() + set.first[b]); });
+}
+
+// mprgp.hpp's naturalResidual, its two sums in fixed chunks of blocks: a plain loop's bits up
+// to kReduceChunk blocks, the same bits for every thread count above
+double naturalResidualOnThreads(const SeparableSet& set, const std::vector<double>& x,
+                                const std::vector<double>& g, ProjectedNewtonWorkspace& ws,
+                                int threads) {
+  using Sums = std::pair<double, double>;  // |x - P(x - g)|^2, the scale
+  const Sums sums = reduceInChunks(
+      set.blocks(), threads, Sums{0.0, 0.0}, ws.residual_parts,
+      [&](long block, Sums& part) {
+        const int b = static_cast<int>(block);
+        if (effectiveSet(set, b) == BlockSet::Fixed) return;
+        const int f = set.first[b], n = set.size[b];
+        double y[2] = {0.0, 0.0};
+        double x2 = 0.0, g2 = 0.0;
+        for (int i = 0; i < n; ++i) {
+          y[i] = x[f + i] - g[f + i];
+          x2 += x[f + i] * x[f + i];
+          g2 += g[f + i] * g[f + i];
+        }
+        projectBlock(set, b, y);
+        for (int i = 0; i < n; ++i) part.first += (x[f + i] - y[i]) * (x[f + i] - y[i]);
+        part.second += std::max(x2, g2) + set.scale2[b];
+      },
+      [](Sums& total, const Sums& part) {
+        total.first += part.first;
+        total.second += part.second;
+      });
+  return sums.second > 0.0 ? std::sqrt(sums.first / sums.second) : std::sqrt(sums.first);
 }
 
 // the bounds of variable i's box (+-inf where open)
@@ -296,8 +558,9 @@ void boundsOf(const SeparableSet& set, int b, double& low, double& high) {
 }
 
 // the reduced matrix: A + rho I on the free variables, the identity on the others
-void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>& fixed) {
-  for (int j = 0; j < n; ++j)
+void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>& fixed,
+                   int threads) {
+  forEachIndex(n, threads, [&](long j) {
     for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
       const int i = ws.a_row[e];
       if (fixed[i] || fixed[j])
@@ -305,6 +568,7 @@ void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>&
       else
         ws.factor_value[e] = ws.a_value[e] + (i == j ? kRegularization : 0.0);
     }
+  });
 }
 
 }  // namespace
@@ -327,9 +591,21 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   formProduct(ws, n, static_cast<int>(v.size()));
   if (!ws.cholesky) ws.cholesky = std::make_unique<SparseCholesky>();
   ws.factor_value.resize(ws.a_value.size());
-  bool usable = ws.cholesky->analyze(n, ws.a_begin, ws.a_row);
+  const int threads = settings.threads;
+  bool usable = ws.cholesky->analyze(n, ws.a_begin, ws.a_row, threads);
+  // the chunked sums' parts, sized before the iterations
+  const long chunks = (std::max(n, set.blocks()) + kReduceChunk - 1) / kReduceChunk;
+  ws.sum_parts.reserve(chunks);
+  ws.residual_parts.reserve(chunks);
+  // the loops below over the variables run on threads from kParallelItems variables on; their
+  // sums are taken in fixed chunks: the bits do not depend on the thread count
+  auto each = [&](auto&& body) { forEachIndex(n, threads, body); };
+  auto sum = [&](auto&& add) { return sumInChunks(n, threads, ws.sum_parts, add); };
+  auto copy = [&](const std::vector<double>& from, std::vector<double>& to) {
+    each([&](long i) { to[i] = from[i]; });
+  };
 
-  gradient(ws, x, ws.g);
+  gradient(ws, x, ws.g, threads);
   const int newton_cap = std::min(kMaxNewton, settings.max_iterations);
   ws.lower.resize(n);
   ws.upper.resize(n);
@@ -339,38 +615,38 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   ws.side.resize(n);
   ws.x_best = x;
   ws.x_start = x;
+  ws.x_prev.resize(n);
+  ws.g_prev.resize(n);
   // the warm start is not kept as it is: at least one step, as MPRGP takes one iteration
   double best = std::numeric_limits<double>::infinity();
   // sides from x and its gradient: held at the bound where x - g leaves the box
   auto sidesFrom = [&]() {
-    for (int i = 0; i < n; ++i) {
+    each([&](long i) {
       const double y = x[i] - ws.g[i];
       ws.side[i] = y <= ws.lower[i] ? kLower : y >= ws.upper[i] ? kUpper : kFree;
-    }
+    });
   };
   // factorizes the matrix reduced to the variables not binding and solves for -g there
   auto newtonDirection = [&]() {
-    reducedMatrix(ws, n, ws.binding);
-    for (int i = 0; i < n; ++i) ws.g_trial[i] = ws.binding[i] ? 0.0 : -ws.g[i];
+    reducedMatrix(ws, n, ws.binding, threads);
+    each([&](long i) { ws.g_trial[i] = ws.binding[i] ? 0.0 : -ws.g[i]; });
     ++stats.iterations;
     return ws.cholesky->factorize(ws.factor_value) && ws.cholesky->solve(ws.g_trial, ws.d);
   };
   auto keepIfBest = [&](const std::vector<double>& xp, const std::vector<double>& gp) {
-    const double residual = naturalResidual(set, xp, gp);
+    const double residual = naturalResidualOnThreads(set, xp, gp, ws, threads);
     if (residual < best) {
       best = residual;
-      ws.x_best = xp;
+      copy(xp, ws.x_best);
     }
   };
 
   // squared natural map |x - clamp(x - g)|^2, defined at infeasible x too
   auto merit = [&](const std::vector<double>& xp, const std::vector<double>& gp) {
-    double sum = 0.0;
-    for (int i = 0; i < n; ++i) {
+    return sum([&](long i, double& part) {
       const double r = xp[i] - std::clamp(xp[i] - gp[i], ws.lower[i], ws.upper[i]);
-      sum += r * r;
-    }
-    return sum;
+      part += r * r;
+    });
   };
   // One semismooth Newton step on the natural map F(x) = x - P(x - g(x)) (the primal-dual
   // active set step of Hintermueller, Ito & Kunisch 2003, damped): sides from x - g, the
@@ -378,46 +654,47 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   // Returns false, x back at the best point, when no step length lowers |F|.
   auto semismoothStep = [&]() {
     sidesFrom();
-    ws.x_prev = x;
-    ws.g_prev = ws.g;
+    copy(x, ws.x_prev);
+    copy(ws.g, ws.g_prev);
     const double f0 = merit(x, ws.g);
-    for (int i = 0; i < n; ++i) {
+    each([&](long i) {
       ws.binding[i] = ws.side[i] != kFree;
       if (ws.side[i] == kLower) x[i] = ws.lower[i];
       if (ws.side[i] == kUpper) x[i] = ws.upper[i];
-    }
-    gradient(ws, x, ws.g);
+    });
+    gradient(ws, x, ws.g, threads);
     if (!newtonDirection()) return usable = false;
-    for (int i = 0; i < n; ++i)
+    each([&](long i) {
       if (!ws.binding[i]) x[i] += ws.d[i];
-    gradient(ws, x, ws.g);
+    });
+    gradient(ws, x, ws.g, threads);
     // the full step, projected, may already be the answer (the line search's test cannot see
     // a decrease below round-off)
-    ws.x_trial = x;
-    project(set, ws.x_trial);
-    gradient(ws, ws.x_trial, ws.g_trial);
+    copy(x, ws.x_trial);
+    projectOnThreads(set, ws.x_trial, threads);
+    gradient(ws, ws.x_trial, ws.g_trial, threads);
     keepIfBest(ws.x_trial, ws.g_trial);
     if (best <= settings.tolerance) return true;
     double t = 1.0;
     for (int halving = 0; halving <= kMaxHalvings; ++halving, t *= 0.5) {
-      for (int i = 0; i < n; ++i) {
+      each([&](long i) {
         ws.x_trial[i] = ws.x_prev[i] + t * (x[i] - ws.x_prev[i]);
         ws.g_trial[i] = ws.g_prev[i] + t * (ws.g[i] - ws.g_prev[i]);
-      }
+      });
       if (merit(ws.x_trial, ws.g_trial) <= (1.0 - kArmijo * t) * f0) {
         // copied, not swapped: x is the caller's, and a swap would hand it this workspace's
         // buffer, too small for the caller's next program
-        std::copy(ws.x_trial.begin(), ws.x_trial.end(), x.begin());
+        copy(ws.x_trial, x);
         ws.g.swap(ws.g_trial);
-        ws.x_trial = x;
-        project(set, ws.x_trial);
-        gradient(ws, ws.x_trial, ws.g_trial);
+        copy(x, ws.x_trial);
+        projectOnThreads(set, ws.x_trial, threads);
+        gradient(ws, ws.x_trial, ws.g_trial, threads);
         keepIfBest(ws.x_trial, ws.g_trial);
         return true;
       }
     }
-    x = ws.x_best;
-    gradient(ws, x, ws.g);
+    copy(ws.x_best, x);
+    gradient(ws, x, ws.g, threads);
     return false;
   };
 
@@ -426,24 +703,25 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   // step, the others the Newton step, and a projected line search on f follows. Monotone in
   // f: where the damped semismooth step stalls, it still descends.
   auto projectedStep = [&]() {
-    double w2 = 0.0;
-    for (int i = 0; i < n; ++i) ws.x_trial[i] = x[i] - ws.g[i];
-    project(set, ws.x_trial);
-    for (int i = 0; i < n; ++i) w2 += (x[i] - ws.x_trial[i]) * (x[i] - ws.x_trial[i]);
-    markBinding(set, x, ws.g, std::min(kBindingMargin, std::sqrt(w2)), ws.binding);
+    each([&](long i) { ws.x_trial[i] = x[i] - ws.g[i]; });
+    projectOnThreads(set, ws.x_trial, threads);
+    const double w2 =
+        sum([&](long i, double& part) { part += (x[i] - ws.x_trial[i]) * (x[i] - ws.x_trial[i]); });
+    markBinding(set, x, ws.g, std::min(kBindingMargin, std::sqrt(w2)), ws.binding, threads);
     if (!newtonDirection()) return usable = false;
-    for (int i = 0; i < n; ++i)
+    each([&](long i) {
       if (ws.binding[i]) ws.d[i] = -ws.g[i];
-    const double f = objective(x, ws.g, ws.b);
+    });
+    const double f = objective(x, ws.g, ws, threads);
     double alpha = 1.0;
     for (int halving = 0; halving <= kMaxHalvings; ++halving, alpha *= 0.5) {
-      for (int i = 0; i < n; ++i) ws.x_trial[i] = x[i] + alpha * ws.d[i];
-      project(set, ws.x_trial);
-      double slope = 0.0;
-      for (int i = 0; i < n; ++i) slope += ws.g[i] * (ws.x_trial[i] - x[i]);
-      gradient(ws, ws.x_trial, ws.g_trial);
-      if (slope <= 0.0 && objective(ws.x_trial, ws.g_trial, ws.b) <= f + kArmijo * slope) {
-        std::copy(ws.x_trial.begin(), ws.x_trial.end(), x.begin());
+      each([&](long i) { ws.x_trial[i] = x[i] + alpha * ws.d[i]; });
+      projectOnThreads(set, ws.x_trial, threads);
+      const double slope =
+          sum([&](long i, double& part) { part += ws.g[i] * (ws.x_trial[i] - x[i]); });
+      gradient(ws, ws.x_trial, ws.g_trial, threads);
+      if (slope <= 0.0 && objective(ws.x_trial, ws.g_trial, ws, threads) <= f + kArmijo * slope) {
+        copy(ws.x_trial, x);
         ws.g.swap(ws.g_trial);
         keepIfBest(x, ws.g);
         return true;

@@ -32,7 +32,11 @@
 // Stop: mprgp.hpp's natural-map residual, recomputed at the end through the operator.
 // Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
 // 3D contact network: it pays where CG needs many iterations (deep piles, tight tolerances).
+// On MprgpSettings::threads threads: the factorization split along the elimination tree
+// (disjoint subtrees at once, then the rows above them), the products with A row by row, the
+// vector loops by variables and their sums in fixed chunks; the same bits for every count.
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "integrators/mprgp.hpp"
@@ -54,6 +58,11 @@ struct ProjectedNewtonWorkspace {
   // A = J^T K, lower triangle, compressed columns with sorted rows; the factorized values
   std::vector<int> a_begin, a_row;
   std::vector<double> a_value, factor_value;
+  // A whole, by rows, columns sorted: the products, row by row on threads
+  std::vector<int> full_begin, full_column;
+  std::vector<double> full_value;
+  std::vector<double> sum_parts;  // the chunked sums' parts (framework/parallel.hpp)
+  std::vector<std::pair<double, double>> residual_parts;
   std::vector<double> accumulator;
   std::vector<int> marker, touched;
   std::vector<double> b, g, d, x_trial, g_trial;
