@@ -251,23 +251,26 @@ bool anyNonZero(const std::vector<double>& x) {
 
 }  // namespace
 
+void addResidualTerms(const SeparableSet& s, int b, const std::vector<double>& x,
+                      const std::vector<double>& g, double& f2, double& scale2) {
+  if (effectiveSet(s, b) == BlockSet::Fixed) return;
+  const int f = s.first[b], n = s.size[b];
+  double y[2] = {0.0, 0.0};
+  double x2 = 0.0, g2 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    y[i] = x[f + i] - g[f + i];
+    x2 += x[f + i] * x[f + i];
+    g2 += g[f + i] * g[f + i];
+  }
+  projectBlock(s, b, y);
+  for (int i = 0; i < n; ++i) f2 += (x[f + i] - y[i]) * (x[f + i] - y[i]);
+  scale2 += std::max(x2, g2) + s.scale2[b];
+}
+
 double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
                        const std::vector<double>& g) {
   double f2 = 0.0, scale2 = 0.0;
-  for (int b = 0; b < s.blocks(); ++b) {
-    if (effectiveSet(s, b) == BlockSet::Fixed) continue;
-    const int f = s.first[b], n = s.size[b];
-    double y[2] = {0.0, 0.0};
-    double x2 = 0.0, g2 = 0.0;
-    for (int i = 0; i < n; ++i) {
-      y[i] = x[f + i] - g[f + i];
-      x2 += x[f + i] * x[f + i];
-      g2 += g[f + i] * g[f + i];
-    }
-    projectBlock(s, b, y);
-    for (int i = 0; i < n; ++i) f2 += (x[f + i] - y[i]) * (x[f + i] - y[i]);
-    scale2 += std::max(x2, g2) + s.scale2[b];
-  }
+  for (int b = 0; b < s.blocks(); ++b) addResidualTerms(s, b, x, g, f2, scale2);
   return scale2 > 0.0 ? std::sqrt(f2 / scale2) : std::sqrt(f2);
 }
 

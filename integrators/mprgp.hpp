@@ -146,5 +146,9 @@ MprgpStats solveSeparableQp(const QpOperator& op, const SeparableSet& set,
 // The natural-map residual above at (x, g).
 double naturalResidual(const SeparableSet& set, const std::vector<double>& x,
                        const std::vector<double>& g);
+// Block b's terms of it: |x_b - P_b(x_b - g_b)|^2 added to f2, its scale to scale2 (nothing
+// for a fixed block); the residual is sqrt(f2 / scale2), or sqrt(f2) where scale2 is 0.
+void addResidualTerms(const SeparableSet& set, int b, const std::vector<double>& x,
+                      const std::vector<double>& g, double& f2, double& scale2);
 
 }  // namespace sweep

@@ -513,20 +513,8 @@ double naturalResidualOnThreads(const SeparableSet& set, const std::vector<doubl
   using Sums = std::pair<double, double>;  // |x - P(x - g)|^2, the scale
   const Sums sums = reduceInChunks(
       set.blocks(), threads, Sums{0.0, 0.0}, ws.residual_parts,
-      [&](long block, Sums& part) {
-        const int b = static_cast<int>(block);
-        if (effectiveSet(set, b) == BlockSet::Fixed) return;
-        const int f = set.first[b], n = set.size[b];
-        double y[2] = {0.0, 0.0};
-        double x2 = 0.0, g2 = 0.0;
-        for (int i = 0; i < n; ++i) {
-          y[i] = x[f + i] - g[f + i];
-          x2 += x[f + i] * x[f + i];
-          g2 += g[f + i] * g[f + i];
-        }
-        projectBlock(set, b, y);
-        for (int i = 0; i < n; ++i) part.first += (x[f + i] - y[i]) * (x[f + i] - y[i]);
-        part.second += std::max(x2, g2) + set.scale2[b];
+      [&](long b, Sums& part) {
+        addResidualTerms(set, static_cast<int>(b), x, g, part.first, part.second);
       },
       [](Sums& total, const Sums& part) {
         total.first += part.first;
