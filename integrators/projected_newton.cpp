@@ -429,8 +429,9 @@ void formProduct(ProjectedNewtonWorkspace& ws, int n, int velocities) {
     }
     ws.a_begin.push_back(static_cast<int>(ws.a_row.size()));
   }
-  // A by rows: row i is column i's entries left of the diagonal, then its own; walking the
-  // columns in order appends each row's entries in increasing column order
+  // A by rows: row i holds the lower triangle's row i (columns j < i), then its column i (the
+  // diagonal and below, by symmetry); walking the columns in order appends each row's entries
+  // in increasing column order
   ws.full_begin.assign(n + 1, 0);
   for (int j = 0; j < n; ++j)
     for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
