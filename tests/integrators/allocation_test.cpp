@@ -7,6 +7,7 @@
 #include <new>
 
 #include "integrators/nlgs.hpp"
+#include "integrators/projected_newton.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
 #include "solver_fixtures.hpp"
@@ -135,6 +136,34 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
               << (planar ? "2D " : "3D ") << stageSolverName(solver) << " stages";
         }
       }
+    }
+  }
+}
+
+// The Newton solver's threaded path (a 16 020-row program, its factorization split over 2
+// threads, its loops and chunked sums on threads): a second solve of the same pattern
+// allocates nothing either.
+TEST(NoAllocation, ThreadedNewtonSolveOnItsSecondCall) {
+  std::mt19937 rng(5);
+  const test::GridProgram program(90, rng);
+  SeparableSet set;
+  for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
+  MprgpSettings settings;
+  settings.threads = 2;
+  ProjectedNewtonWorkspace ws;
+  MprgpWorkspace fallback;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<double> x(program.variables(), 0.0);
+    VectorX v = VectorX::Zero(program.velocities());
+    MprgpStats stats;
+    {
+      Counted counted;
+      stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+    }
+    ASSERT_TRUE(stats.converged);
+    ASSERT_EQ(stats.newton_steps, stats.iterations);
+    if (round == 1) {
+      EXPECT_EQ(allocations, 0) << "threaded Newton solve";
     }
   }
 }

@@ -245,73 +245,12 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
   std::printf("random box programs to 1e-12: at most %d projected Newton steps\n", worst);
 }
 
-// A sparse program shaped like a 2D contact network: the velocities are those of the nodes of
-// a side x side grid (two each), the variables its edges (a contact each, >= 0), each column
-// of B the edge's normal at its two ends, weighted by a random inverse mass. Large enough that
-// the factorization is split over threads.
-class GridProgram final : public QpOperator {
- public:
-  GridProgram(int side, std::mt19937& rng) {
-    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-    auto node = [side](int i, int j) { return i * side + j; };
-    for (int i = 0; i < side; ++i)
-      for (int j = 0; j < side; ++j)
-        for (int dir = 0; dir < 2; ++dir) {
-          const int ni = i + (dir == 0), nj = j + (dir == 1);
-          if (ni >= side || nj >= side) continue;
-          const double tilt = 0.2 * uniform(rng);
-          const double nx = dir == 0 ? 1.0 : tilt, ny = dir == 0 ? tilt : 1.0;
-          for (int end = 0; end < 2; ++end) {
-            const int k = end == 0 ? node(i, j) : node(ni, nj);
-            const double sign = end == 0 ? -1.0 : 1.0, w = 1.0 + 0.5 * uniform(rng);
-            column_.push_back({{2 * k, sign * nx * w}, {2 * k + 1, sign * ny * w}});
-          }
-          // the two ends' entries as one column
-          column_[column_.size() - 2].insert(column_[column_.size() - 2].end(),
-                                             column_.back().begin(), column_.back().end());
-          column_.pop_back();
-          b_.push_back(uniform(rng));  // pressed or pushed apart
-        }
-    velocities_ = 2 * side * side;
-  }
-  int variables() const { return static_cast<int>(column_.size()); }
-  int velocities() const { return velocities_; }
-  void toVelocity(const std::vector<double>& x, VectorX& z) const override {
-    z = VectorX::Zero(velocities_);
-    for (std::size_t j = 0; j < column_.size(); ++j)
-      for (const auto& [k, a] : column_[j]) z[k] += a * x[j];
-  }
-  void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
-    for (std::size_t j = 0; j < column_.size(); ++j) {
-      double sum = affine ? -b_[j] : 0.0;
-      for (const auto& [k, a] : column_[j]) sum += a * v[k];
-      y[j] = sum;
-    }
-  }
-  bool columns(SparseColumns& J, SparseColumns& K) const override {
-    for (const auto& entries : column_) {
-      for (const auto& [k, a] : entries) {
-        J.push(k, a);
-        K.push(k, a);
-      }
-      J.endColumn();
-      K.endColumn();
-    }
-    return true;
-  }
-
- private:
-  std::vector<std::vector<std::pair<int, double>>> column_;
-  std::vector<double> b_;
-  int velocities_ = 0;
-};
-
 // The factorization split over threads along the elimination tree gives the same bits as one
 // thread: the same iterates, the same answer, bit for bit, on 1, 2, 3 and 4 threads, and
 // again on a second solve of the same pattern (the refactorization path).
 TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
   std::mt19937 rng(5);
-  const GridProgram program(90, rng);  // 16 020 variables
+  const test::GridProgram program(90, rng);  // 16 020 variables
   SeparableSet set;
   for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
   ASSERT_TRUE(projectedNewtonApplies(set));
