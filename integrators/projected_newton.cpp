@@ -170,6 +170,9 @@ class SparseCholesky {
       return false;
     return common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
   }
+  int threads() const {
+    return scheduled_threads_;
+  }
   // solution = A^-1 rhs
   bool solve(const std::vector<double>& rhs, std::vector<double>& solution) {
     permuted_.resize(rhs.size());
@@ -372,6 +375,9 @@ ProjectedNewtonWorkspace::~ProjectedNewtonWorkspace() = default;
 ProjectedNewtonWorkspace::ProjectedNewtonWorkspace(ProjectedNewtonWorkspace&&) noexcept = default;
 ProjectedNewtonWorkspace& ProjectedNewtonWorkspace::operator=(ProjectedNewtonWorkspace&&) noexcept =
     default;
+int ProjectedNewtonWorkspace::factorThreads() const {
+  return cholesky ? cholesky->threads() : 1;
+}
 
 bool projectedNewtonApplies(const SeparableSet& set) {
   for (int b = 0; b < set.blocks(); ++b)

@@ -69,6 +69,9 @@ struct ProjectedNewtonWorkspace {
   std::vector<char> binding, side;
   std::vector<double> lower, upper, x_start, x_best, x_prev, g_prev;
   std::unique_ptr<SparseCholesky> cholesky;
+
+  // the threads the last pattern's factorization is split over (1: CHOLMOD's own, unsplit)
+  int factorThreads() const;
 };
 
 // Whether solveProjectedNewton takes this program: every block a box, and the operator's

@@ -162,6 +162,7 @@ TEST(NoAllocation, ThreadedNewtonSolveOnItsSecondCall) {
     }
     ASSERT_TRUE(stats.converged);
     ASSERT_EQ(stats.newton_steps, stats.iterations);
+    ASSERT_EQ(ws.factorThreads(), 2) << "the factorization must be split for this test";
     if (round == 1) {
       EXPECT_EQ(allocations, 0) << "threaded Newton solve";
     }

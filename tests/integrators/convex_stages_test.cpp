@@ -268,6 +268,8 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
       const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
       ASSERT_TRUE(stats.converged) << threads << " threads, residual " << stats.residual;
       EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed to MPRGP on " << threads;
+      // the split is taken: the bits below compare a split factorization with CHOLMOD's own
+      EXPECT_EQ(ws.factorThreads(), threads);
       if (threads == 1 && solve == 0) {
         x_one = x;
         v_one = v;
