@@ -156,7 +156,8 @@ class SparseCholesky {
         if (chain_start_[chain] >= n_) continue;
         // a copy of the factor's header: rowfac records a zero pivot in its `minor`, which the
         // threads would otherwise share; the arrays are shared, each chain's rows write only
-        // the columns of its own subtrees
+        // the columns of its own subtrees, and no column grows (each holds the count the
+        // analysis gave it), so rowfac never reallocates them under the other threads
         cholmod_factor own = *factor_;
         ok = cholmod_rowfac_mask(&upper_, nullptr, beta, chain_start_[chain], n_, nullptr,
                                  link_.data(), &own, &thread_common_[chain]) &&
