@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
+#include <type_traits>
 
 #include "contact/fcl_scene.hpp"
 #include "contact/narrowphase_analytic.hpp"
@@ -358,19 +360,54 @@ void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata,
 // handful of neighbours and is insertion-sorted; a plate's or a wall's holds every grain
 // near it (thousands under a powder layer), where insertion sort was quadratic and took
 // 80 % of detection (docs/powder_bed.md): those runs go to std::sort.
+// On threads, the counting sort counts and scatters the pairs cut into one range per thread,
+// range r's pairs of a geometry after range r - 1's: the stable order of one thread's scatter.
 // Runs are sorted each on its own: on threads, the same order.
 void sortPairs(int geometries, ContactData& cdata, int threads) {
   std::vector<int>& start = cdata.pair_start;
-  start.assign(geometries + 1, 0);
-  for (const auto& pair : cdata.pairs) ++start[pair.first + 1];
-  for (int g = 0; g < geometries; ++g) start[g + 1] += start[g];
-  cdata.sorted_pairs.resize(cdata.pairs.size());
-  for (const auto& pair : cdata.pairs) cdata.sorted_pairs[start[pair.first]++] = pair;
+  const std::size_t pair_count = cdata.pairs.size();
+  const bool parallel = threads > 1 && pair_count >= static_cast<std::size_t>(kParallelItems);
+  const int ranges = parallel ? threads : 1;
+  const std::size_t stride = static_cast<std::size_t>(geometries) + 1;
+  // range r's count, then its cursor, of geometry g at range_start[r * stride + g + 1]
+  std::vector<int>& range_start = cdata.pair_range_start;
+  range_start.assign(ranges * stride, 0);
+  cdata.sorted_pairs.resize(pair_count);
+  const auto& unsorted = cdata.pairs;
+  auto& sorted = cdata.sorted_pairs;
+#pragma omp parallel num_threads(ranges) if (parallel)
+  {
+#pragma omp for schedule(static, 1)
+    for (int r = 0; r < ranges; ++r) {
+      int* count = range_start.data() + r * stride;
+      for (std::size_t k = pair_count * r / ranges; k < pair_count * (r + 1) / ranges; ++k)
+        ++count[unsorted[k].first + 1];
+    }
+#pragma omp single
+    {
+      // geometry g's pairs: range 0's, range 1's, ...; each range's cursor at its first slot
+      int next = 0;
+      for (int g = 0; g < geometries; ++g)
+        for (int r = 0; r < ranges; ++r) {
+          int& slot = range_start[r * stride + g + 1];
+          const int count = slot;
+          slot = next;
+          next += count;
+        }
+    }
+#pragma omp for schedule(static, 1)
+    for (int r = 0; r < ranges; ++r) {
+      int* cursor = range_start.data() + r * stride;
+      for (std::size_t k = pair_count * r / ranges; k < pair_count * (r + 1) / ranges; ++k)
+        sorted[cursor[unsorted[k].first + 1]++] = unsorted[k];
+    }
+  }
+  // the end of each geometry's run: the last range's cursor after its scatter
+  start.resize(stride);
+  for (int g = 0; g < geometries; ++g) start[g] = range_start[(ranges - 1) * stride + g + 1];
   std::swap(cdata.pairs, cdata.sorted_pairs);
   auto& pairs = cdata.pairs;
   constexpr int kInsertionRun = 32;
-  const bool parallel = threads > 1 && pairs.size() >= static_cast<std::size_t>(kParallelItems);
-  // after the scatter, start[g] is the end of g's run
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(threads) if (parallel)
   for (int g = 0; g < geometries; ++g) {
     const int run_begin = g == 0 ? 0 : start[g - 1], run_end = start[g];
@@ -386,12 +423,38 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
   }
 }
 
-// The narrowphase of one pair: its contacts (gap < margin), appended to `out` in feature
-// order with their law; `points` is scratch.
+// Where a run of the narrowphase on threads puts its contacts: first counted, each pair's
+// kept in one scratch element (ContactCount), then written at their place in the one list
+// (ContactSlots), by the same code. The list is written once: a list per run, copied into
+// the one list afterwards, moved its 60 MB (on a wide powder bed) through memory twice more.
+struct ContactCount {
+  Contact scratch;
+  std::size_t count = 0;
+  std::size_t size() const { return count; }
+  Contact& emplace_back() {
+    ++count;
+    return scratch;
+  }
+  Contact& operator[](std::size_t) { return scratch; }
+};
+// (the count and the writes share narrowphasePair and its input: they agree)
+struct ContactSlots {
+  Contact* first;
+  std::size_t count = 0;
+  std::size_t size() const { return count; }
+  Contact& emplace_back() {  // as std::vector's: a new element in the old one's place
+    static_assert(std::is_trivially_destructible_v<Contact>);
+    return *::new (static_cast<void*>(first + count++)) Contact();
+  }
+  Contact& operator[](std::size_t k) { return first[k]; }
+};
+
+// The narrowphase of one pair: its contacts (gap < margin), appended to `out` (a
+// std::vector<Contact> or the two above) in feature order with their law; `points` is scratch.
+template <class Contacts>
 void narrowphasePair(const Model& model, const ContactModel& cmodel, const ContactData& cdata,
                      double t, const DetectionMargins& margins, const std::pair<int, int>& pair,
-                     std::vector<Contact>& out, std::vector<ContactPoint>& points,
-                     int& broadphase_pairs) {
+                     Contacts& out, std::vector<ContactPoint>& points, int& broadphase_pairs) {
   // named copies, not structured bindings: C++17 lambdas cannot capture those (clang)
   const int a = pair.first, b = pairGeometry(pair.second), image = pairImage(pair.second);
   // a driven body past its removal time (a pulled shutter) meets nothing
@@ -507,31 +570,25 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
     return;
   }
-  // Pairs cut into one run per thread, each into its own list, then the lists copied in
-  // order into the one list, each by its thread: the same list as one thread's. The list
-  // keeps the elements of two detections ago and constructs only the ones it gains (a cleared
-  // list constructed every element, 60 MB on a wide powder bed, on one thread).
-  if (cdata.run_contacts.size() < static_cast<std::size_t>(runs)) {
-    cdata.run_contacts.resize(runs);
-    cdata.run_points.resize(runs);
-  }
+  // Pairs cut into one run per thread; each run counts its contacts, then writes them at its
+  // offset in the one list: the same list as one thread's. The list keeps the elements of
+  // two detections ago and constructs only the ones it gains (a cleared list constructed
+  // every element, 60 MB on a wide powder bed, on one thread).
+  if (cdata.run_points.size() < static_cast<std::size_t>(runs)) cdata.run_points.resize(runs);
   std::vector<std::size_t> offset(runs + 1, 0);
   std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
 #pragma omp parallel num_threads(runs)
   {
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-      // the run's lists and counts on its own stack while it runs: their headers, side by
-      // side in cdata, share a cache line that every pair would write
-      std::vector<Contact> found = std::move(cdata.run_contacts[r]);
+      // the run's count on its own stack while it runs: the counts, side by side, share a
+      // cache line that every pair would write
+      ContactCount counted;
       std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
-      found.clear();
       int visited = 0;
       for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k)
-        narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], found, points, visited);
-      broadphase_pairs[r] = visited;
-      offset[r + 1] = found.size();
-      cdata.run_contacts[r] = std::move(found);
+        narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], counted, points, visited);
+      offset[r + 1] = counted.size();
       cdata.run_points[r] = std::move(points);
     }
 #pragma omp single
@@ -541,8 +598,13 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     }
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-      std::copy(cdata.run_contacts[r].begin(), cdata.run_contacts[r].end(),
-                cdata.contacts.begin() + offset[r]);
+      ContactSlots slots{cdata.contacts.data() + offset[r]};
+      std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
+      int visited = 0;
+      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k)
+        narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], slots, points, visited);
+      cdata.run_points[r] = std::move(points);
+      broadphase_pairs[r] = visited;
       matched[r] = matchPrevious(cdata, cmodel.dimension, offset[r], offset[r + 1]);
     }
   }
@@ -578,9 +640,14 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     gaps[c] = (center_b - cdata.geometry_pose[a].translation).norm() -
               cmodel.traits[a].ball_radius - cmodel.traits[b].ball_radius;
   }
-  // the other pairs on this thread, their contacts together (one narrowphase per pair)
+  // the other pairs on this thread, their contacts together (one narrowphase per pair); found
+  // by their gaps, still `far`: reading each contact's key took a cache line per ball pair
   std::size_t c = 0;
   while (c < cdata.contacts.size()) {
+    if (gaps[c] != far) {  // a ball pair's, set above
+      ++c;
+      continue;
+    }
     const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
     const ContactModel::Traits& ta = cmodel.traits[a];
     const ContactModel::Traits& tb = cmodel.traits[b];

@@ -42,11 +42,11 @@ struct ContactData {
   std::vector<std::pair<int, int>> pairs;
   std::vector<std::pair<int, int>> sorted_pairs;
   std::vector<int> pair_start;
+  std::vector<int> pair_range_start;  // the counting sort's per-thread counts and cursors
   std::vector<ContactPoint> points;
   // threaded broadphase: each thread's pairs
   std::vector<std::vector<std::pair<int, int>>> run_pairs;
-  // threaded narrowphase: each thread's contacts of one pair, and its points
-  std::vector<std::vector<Contact>> run_contacts;
+  // threaded narrowphase: each thread's points of one pair
   std::vector<std::vector<ContactPoint>> run_points;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry
@@ -96,8 +96,9 @@ DetectionMargins detectionMargins(const Model& model, const Data& data, const Co
                                   double h, double t);
 
 // Fills cdata.contacts with every pair of geometries closer than their margin, sorted by key,
-// with frames and contact laws, each matched to the previous detection's contacts. The grid
-// broadphase runs on up to `threads` threads; the list is the same for every count.
+// with frames and contact laws, each matched to the previous detection's contacts. On the
+// grid path the broadphase, the pairs' sort, the narrowphase and the matching run on up to
+// `threads` threads; the list is the same for every count.
 void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
                     ContactData& cdata, double t, const DetectionMargins& margins, int threads = 1);
 inline void detectContacts(const Model& model, const Data& data, const ContactModel& cmodel,
