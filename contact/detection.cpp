@@ -319,7 +319,18 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const Detect
       cdata.pairs.push_back(encodePair(std::min(g, p), std::max(g, p)));
     };
     if (isUnbounded(shape)) {
-      for (int k = 0; k < n; ++k) add(k);
+      // the grains within the margin of its face: the narrowphase's gap, with room for its
+      // rounding. A powder bed's floor and end walls each met every grain, half the pairs.
+      const Vector3 origin = cdata.geometry_pose[g].translation;
+      const Vector3 outward = outwardNormal(shape, cdata.geometry_pose[g]);
+      const double face_margin = std::max(margins.balls, margins.others);
+      for (int k = 0; k < n; ++k) {
+        const Vector3 offset = cdata.particle_center[k] - origin;
+        const double radius = cdata.particle_radius[k];
+        const double slack = 1e-9 * (offset.cwiseAbs().sum() + radius);
+        // a NaN gap is kept: the narrowphase decides as before
+        if (!(offset.dot(outward) - radius >= face_margin + slack)) add(k);
+      }
     } else {
       const Vector3 center = cdata.geometry_pose[g].translation;
       // a large ball meets the particles with the balls' margin, which a check of the end
@@ -570,12 +581,17 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     cdata.stats.candidates = static_cast<int>(cdata.contacts.size());
     return;
   }
-  // Pairs cut into one run per thread; each run counts its contacts, then writes them at its
-  // offset in the one list: the same list as one thread's. The list keeps the elements of
-  // two detections ago and constructs only the ones it gains (a cleared list constructed
-  // every element, 60 MB on a wide powder bed, on one thread).
+  // Pairs cut into one run per thread count their contacts, pair by pair; the pairs are then
+  // cut again, by work, into one run per thread that writes its contacts at their place in
+  // the one list and matches them to the previous detection: the same list as one thread's.
+  // The list keeps the elements of two detections ago and constructs only the ones it gains
+  // (a cleared list constructed every element, 60 MB on a wide powder bed, on one thread).
   if (cdata.run_points.size() < static_cast<std::size_t>(runs)) cdata.run_points.resize(runs);
-  std::vector<std::size_t> offset(runs + 1, 0);
+  // contacts of pairs [0, k) at pair_contacts[k] (after the count: of pair k - 1 alone)
+  std::vector<int>& pair_contacts = cdata.pair_contacts;
+  pair_contacts.resize(pair_count + 1);
+  pair_contacts[0] = 0;
+  std::vector<std::size_t> split(runs + 1, pair_count);
   std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
 #pragma omp parallel num_threads(runs)
   {
@@ -586,26 +602,46 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       ContactCount counted;
       std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
       int visited = 0;
-      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k)
+      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k) {
+        const std::size_t before = counted.size();
         narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], counted, points, visited);
-      offset[r + 1] = counted.size();
+        pair_contacts[k + 1] = static_cast<int>(counted.size() - before);
+      }
       cdata.run_points[r] = std::move(points);
     }
 #pragma omp single
     {
-      for (int r = 0; r < runs; ++r) offset[r + 1] += offset[r];
-      cdata.contacts.resize(offset[runs]);
+      for (std::size_t k = 0; k < pair_count; ++k) pair_contacts[k + 1] += pair_contacts[k];
+      cdata.contacts.resize(pair_contacts[pair_count]);
+      // A pair costs about one unit and each of its contacts two more (written, then matched):
+      // the walls and plates, which come first, meet every grain near them and make few
+      // contacts; cut by pairs, one thread got a wide bed's walls and the other its grains.
+      auto work = [&](std::size_t k) { return k + 2 * static_cast<std::size_t>(pair_contacts[k]); };
+      split[0] = 0;
+      for (int r = 1; r < runs; ++r) {
+        const std::size_t target = work(pair_count) * r / runs;
+        std::size_t low = split[r - 1], high = pair_count;  // the first k with work(k) >= target
+        while (low < high) {
+          const std::size_t mid = low + (high - low) / 2;
+          if (work(mid) < target)
+            low = mid + 1;
+          else
+            high = mid;
+        }
+        split[r] = low;
+      }
     }
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-      ContactSlots slots{cdata.contacts.data() + offset[r]};
+      ContactSlots slots{cdata.contacts.data() + pair_contacts[split[r]]};
       std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
       int visited = 0;
-      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k)
+      for (std::size_t k = split[r]; k < split[r + 1]; ++k)
         narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], slots, points, visited);
       cdata.run_points[r] = std::move(points);
       broadphase_pairs[r] = visited;
-      matched[r] = matchPrevious(cdata, cmodel.dimension, offset[r], offset[r + 1]);
+      matched[r] = matchPrevious(cdata, cmodel.dimension, pair_contacts[split[r]],
+                                 pair_contacts[split[r + 1]]);
     }
   }
   for (int r = 0; r < runs; ++r) {

@@ -46,8 +46,10 @@ struct ContactData {
   std::vector<ContactPoint> points;
   // threaded broadphase: each thread's pairs
   std::vector<std::vector<std::pair<int, int>>> run_pairs;
-  // threaded narrowphase: each thread's points of one pair
+  // threaded narrowphase: each thread's points of one pair; each pair's contact count
+  // and their sums (pair_contacts[k]: contacts of pairs [0, k))
   std::vector<std::vector<ContactPoint>> run_points;
+  std::vector<int> pair_contacts;
   std::vector<int> particles;  // grid path: geometries binned in the grid
   std::vector<int> large;      // grid path: every other geometry
   // grid path: positions in `large` of the geometries with dofs, ascending. Two frozen shapes

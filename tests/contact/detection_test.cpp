@@ -326,6 +326,14 @@ TEST(Detection, ThreadsGiveTheSameContacts) {
     floor_contacts += c.key.geometry_b == count ? 1 : 0;
     wall_contacts += c.key.geometry_b == count + 1 ? 1 : 0;
   }
+  // every ball within the margin of the floor, and only those (the broadphase culls the
+  // floor's pairs by their gaps before the narrowphase)
+  Data at_moved(model);
+  forwardKinematics(model, at_moved, moved);
+  int near_floor = 0;
+  for (int i = 0; i < count; ++i)
+    near_floor += at_moved.world_pose[i].translation.z() - cmodel.traits[i].ball_radius < 0.02;
+  EXPECT_EQ(floor_contacts, near_floor);
   ASSERT_GT(floor_contacts, 100);
   ASSERT_GT(wall_contacts, 100);
   for (int threads : {2, 3, 4}) {
