@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <new>
+#include <stdexcept>
 #include <type_traits>
 
 #include "contact/fcl_scene.hpp"
@@ -448,16 +449,24 @@ struct ContactCount {
   }
   Contact& operator[](std::size_t) { return scratch; }
 };
-// (the count and the writes share narrowphasePair and its input: they agree)
+// The count and the writes share narrowphasePair and its input, so they agree; a write past
+// the count would go to `spill`, and the caller checks.
 struct ContactSlots {
+  ContactSlots(Contact* slots, std::size_t slot_count) : first(slots), capacity(slot_count) {}
   Contact* first;
+  std::size_t capacity;
   std::size_t count = 0;
+  Contact spill;
   std::size_t size() const { return count; }
   Contact& emplace_back() {  // as std::vector's: a new element in the old one's place
     static_assert(std::is_trivially_destructible_v<Contact>);
+    if (count >= capacity) {
+      ++count;
+      return spill;
+    }
     return *::new (static_cast<void*>(first + count++)) Contact();
   }
-  Contact& operator[](std::size_t k) { return first[k]; }
+  Contact& operator[](std::size_t k) { return k < capacity ? first[k] : spill; }
 };
 
 // The narrowphase of one pair: its contacts (gap < margin), appended to `out` (a
@@ -592,7 +601,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
   pair_contacts.resize(pair_count + 1);
   pair_contacts[0] = 0;
   std::vector<std::size_t> split(runs + 1, pair_count);
-  std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0);
+  std::vector<int> broadphase_pairs(runs, 0), matched(runs, 0), miscounted(runs, 0);
 #pragma omp parallel num_threads(runs)
   {
 #pragma omp for schedule(static, 1)
@@ -613,9 +622,9 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     {
       for (std::size_t k = 0; k < pair_count; ++k) pair_contacts[k + 1] += pair_contacts[k];
       cdata.contacts.resize(pair_contacts[pair_count]);
-      // A pair costs about one unit and each of its contacts two more (written, then matched):
-      // the walls and plates, which come first, meet every grain near them and make few
-      // contacts; cut by pairs, one thread got a wide bed's walls and the other its grains.
+      // A pair costs about one unit and each of its contacts two more (written, then matched).
+      // In a powder bed the walls and plates come first and meet many grains for few
+      // contacts: cut by pairs, one thread got the walls and the other the grains.
       auto work = [&](std::size_t k) { return k + 2 * static_cast<std::size_t>(pair_contacts[k]); };
       split[0] = 0;
       for (int r = 1; r < runs; ++r) {
@@ -633,17 +642,20 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
     }
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-      ContactSlots slots{cdata.contacts.data() + pair_contacts[split[r]]};
+      const std::size_t begin = pair_contacts[split[r]], end = pair_contacts[split[r + 1]];
+      ContactSlots slots(cdata.contacts.data() + begin, end - begin);
       std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
       int visited = 0;
       for (std::size_t k = split[r]; k < split[r + 1]; ++k)
         narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], slots, points, visited);
       cdata.run_points[r] = std::move(points);
       broadphase_pairs[r] = visited;
-      matched[r] = matchPrevious(cdata, cmodel.dimension, pair_contacts[split[r]],
-                                 pair_contacts[split[r + 1]]);
+      miscounted[r] = slots.size() != end - begin;
+      matched[r] = matchPrevious(cdata, cmodel.dimension, begin, end);
     }
   }
+  if (std::find(miscounted.begin(), miscounted.end(), 1) != miscounted.end())
+    throw std::logic_error("detection: the narrowphase wrote other contacts than it counted");
   for (int r = 0; r < runs; ++r) {
     cdata.stats.broadphase_pairs += broadphase_pairs[r];
     cdata.stats.matched += matched[r];
