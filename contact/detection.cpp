@@ -368,6 +368,11 @@ void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata,
   }
 }
 
+// The first of `count` items in run r of `runs` (runs of equal length, in order).
+std::size_t runBegin(std::size_t count, int r, int runs) {
+  return count * static_cast<std::size_t>(r) / static_cast<std::size_t>(runs);
+}
+
 // Sorts pairs (a < b): counting sort on a, then each run on b. A grain's run holds a
 // handful of neighbours and is insertion-sorted; a plate's or a wall's holds every grain
 // near it (thousands under a powder layer), where insertion sort was quadratic and took
@@ -392,7 +397,8 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < ranges; ++r) {
       int* count = range_start.data() + r * stride;
-      for (std::size_t k = pair_count * r / ranges; k < pair_count * (r + 1) / ranges; ++k)
+      for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
+           ++k)
         ++count[unsorted[k].first + 1];
     }
 #pragma omp single
@@ -410,7 +416,8 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
 #pragma omp for schedule(static, 1)
     for (int r = 0; r < ranges; ++r) {
       int* cursor = range_start.data() + r * stride;
-      for (std::size_t k = pair_count * r / ranges; k < pair_count * (r + 1) / ranges; ++k)
+      for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
+           ++k)
         sorted[cursor[unsorted[k].first + 1]++] = unsorted[k];
     }
   }
@@ -611,7 +618,8 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
       ContactCount counted;
       std::vector<ContactPoint> points = std::move(cdata.run_points[r]);
       int visited = 0;
-      for (std::size_t k = pair_count * r / runs; k < pair_count * (r + 1) / runs; ++k) {
+      for (std::size_t k = runBegin(pair_count, r, runs); k < runBegin(pair_count, r + 1, runs);
+           ++k) {
         const std::size_t before = counted.size();
         narrowphasePair(model, cmodel, cdata, t, margins, cdata.pairs[k], counted, points, visited);
         pair_contacts[k + 1] = static_cast<int>(counted.size() - before);

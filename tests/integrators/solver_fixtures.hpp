@@ -127,15 +127,13 @@ class GridProgram final : public QpOperator {
           if (ni >= side || nj >= side) continue;
           const double tilt = 0.2 * uniform(rng);
           const double nx = dir == 0 ? 1.0 : tilt, ny = dir == 0 ? tilt : 1.0;
-          for (int end = 0; end < 2; ++end) {
+          std::vector<std::pair<int, double>>& column = column_.emplace_back();
+          for (int end = 0; end < 2; ++end) {  // the edge's two ends
             const int k = end == 0 ? node(i, j) : node(ni, nj);
             const double sign = end == 0 ? -1.0 : 1.0, w = 1.0 + 0.5 * uniform(rng);
-            column_.push_back({{2 * k, sign * nx * w}, {2 * k + 1, sign * ny * w}});
+            column.push_back({2 * k, sign * nx * w});
+            column.push_back({2 * k + 1, sign * ny * w});
           }
-          // the two ends' entries as one column
-          column_[column_.size() - 2].insert(column_[column_.size() - 2].end(),
-                                             column_.back().begin(), column_.back().end());
-          column_.pop_back();
           b_.push_back(uniform(rng));  // pressed or pushed apart
         }
     velocities_ = 2 * side * side;
