@@ -31,6 +31,113 @@ constexpr double kArmijo = 1e-4;
 constexpr int kMaxHalvings = 40;
 constexpr char kFree = 0, kLower = 1, kUpper = 2;
 
+void startCommon(cholmod_common& common) {
+  cholmod_start(&common);
+  common.print = 0;
+  common.error_handler = nullptr;
+}
+
+// a CHOLMOD view of the pattern of the symmetric matrix whose lower triangle has the compressed
+// columns (begin, row), rows sorted
+cholmod_sparse patternView(int n, std::vector<int>& begin, std::vector<int>& row) {
+  cholmod_sparse lower{};
+  lower.nrow = lower.ncol = static_cast<size_t>(n);
+  lower.nzmax = row.size();
+  lower.p = begin.data();
+  lower.i = row.data();
+  lower.stype = -1;
+  lower.itype = CHOLMOD_INT;
+  lower.xtype = CHOLMOD_PATTERN;
+  lower.dtype = CHOLMOD_DOUBLE;
+  lower.sorted = 1;
+  lower.packed = 1;
+  return lower;
+}
+
+// The fill-reducing order of a large matrix: one level of nested dissection, constrained
+// minimum degree below it. METIS's vertex separator (Karypis & Kumar 1998, "A fast and high
+// quality multilevel scheme for partitioning irregular graphs", SIAM J. Sci. Comput. 20; by
+// CHOLMOD's cholmod_bisect) splits the matrix's graph into two sides that no entry joins; each
+// side is ordered by CAMD on its own graph with the separator, the separator held last (Davis's
+// constrained AMD: the side's degrees count the separator's fill, as one CAMD over the whole
+// matrix would); the two run at once on two threads; the separator's rows come last. The
+// elimination tree becomes two disjoint trees under the separator's rows, where AMD alone ends
+// its trees of contact networks in a long chain of rows that no thread can share (docs/
+// architecture.md, "The Newton solver's factorization"). The fill stays AMD's. METIS seeds its
+// generator with a fixed seed and runs on one thread: the order does not depend on the thread
+// count.
+class DissectionOrdering {
+ public:
+  DissectionOrdering() {
+    for (cholmod_common& c : common_) startCommon(c);
+  }
+  ~DissectionOrdering() {
+    for (cholmod_common& c : common_) cholmod_finish(&c);
+  }
+  DissectionOrdering(const DissectionOrdering&) = delete;
+  DissectionOrdering& operator=(const DissectionOrdering&) = delete;
+
+  // permutation[k]: the row eliminated k-th, of the n x n matrix whose lower triangle has the
+  // compressed columns (begin, row), rows sorted
+  bool order(int n, std::vector<int>& begin, std::vector<int>& row, int threads,
+             std::vector<int>& permutation) {
+    cholmod_sparse whole = patternView(n, begin, row);
+    part_.resize(n);
+    // compress: nodes of equal adjacency merged before METIS sees the graph
+    if (cholmod_bisect(&whole, nullptr, 0, 1, part_.data(), &common_[0]) < 0) return false;
+    // each side's graph with the separator (CAMD's constraint set 1), numbered in the matrix's
+    // order
+    local_.resize(n);
+    for (int s = 0; s < 2; ++s) {
+      std::vector<int>& nodes = side_node_[s];
+      nodes.clear();
+      for (int v = 0; v < n; ++v) {
+        local_[v] = -1;
+        if (part_[v] == s || part_[v] == kSeparator) {
+          local_[v] = static_cast<int>(nodes.size());
+          nodes.push_back(v);
+        }
+      }
+      side_begin_[s].assign(1, 0);
+      side_row_[s].clear();
+      side_constraint_[s].clear();
+      for (int v : nodes) {
+        for (int e = begin[v]; e < begin[v + 1]; ++e)
+          if (local_[row[e]] >= 0) side_row_[s].push_back(local_[row[e]]);
+        side_begin_[s].push_back(static_cast<int>(side_row_[s].size()));
+        side_constraint_[s].push_back(part_[v] == kSeparator ? 1 : 0);
+      }
+      side_order_[s].resize(nodes.size());
+    }
+    int ordered[2] = {1, 1};
+#pragma omp parallel for schedule(static, 1) num_threads(std::min(threads, 2)) if (threads > 1)
+    for (int s = 0; s < 2; ++s) {
+      const int m = static_cast<int>(side_node_[s].size());
+      if (m == 0) continue;
+      cholmod_sparse lower = patternView(m, side_begin_[s], side_row_[s]);
+      ordered[s] = cholmod_camd(&lower, nullptr, 0, side_constraint_[s].data(),
+                                side_order_[s].data(), &common_[s]);
+    }
+    if (!ordered[0] || !ordered[1]) return false;
+    // side 0, side 1, then the separator in side 0's order (the whole of it when side 0 is
+    // empty: then side_node_[0] is the separator)
+    permutation.clear();
+    for (int s = 0; s < 2; ++s)
+      for (int k : side_order_[s])
+        if (part_[side_node_[s][k]] == s) permutation.push_back(side_node_[s][k]);
+    for (int k : side_order_[0])
+      if (part_[side_node_[0][k]] == kSeparator) permutation.push_back(side_node_[0][k]);
+    return static_cast<int>(permutation.size()) == n;
+  }
+
+ private:
+  static constexpr int kSeparator = 2;  // cholmod_bisect's mark of the separator's nodes
+
+  std::vector<int> part_, local_;
+  std::vector<int> side_node_[2], side_begin_[2], side_row_[2], side_constraint_[2], side_order_[2];
+  cholmod_common common_[2]{};  // one per side: the two orderings run at once
+};
+
 }  // namespace
 
 // CHOLMOD's common block, the fill-reducing permutation, the matrix permuted into CHOLMOD's
@@ -52,7 +159,7 @@ constexpr char kFree = 0, kLower = 1, kUpper = 2;
 class SparseCholesky {
  public:
   SparseCholesky() {
-    start(common_);
+    startCommon(common_);
     // the matrix given to cholmod_analyze is already in AMD order; no postorder, which would
     // permute it again
     common_.nmethods = 1;
@@ -65,9 +172,6 @@ class SparseCholesky {
   }
   ~SparseCholesky() {
     release();
-    cholmod_free_dense(&x_, &common_);
-    cholmod_free_dense(&y_, &common_);
-    cholmod_free_dense(&e_, &common_);
     cholmod_finish(&common_);
     for (cholmod_common& c : thread_common_) cholmod_finish(&c);
   }
@@ -92,7 +196,11 @@ class SparseCholesky {
     const int entries = static_cast<int>(row.size());
     cholmod_sparse lower = view(n, begin_, row_, nullptr, -1);
     permutation_.resize(n);
-    if (!cholmod_amd(&lower, nullptr, 0, permutation_.data(), &common_)) return false;
+    if (n < kParallelRows) {
+      if (!cholmod_amd(&lower, nullptr, 0, permutation_.data(), &common_)) return false;
+    } else if (!dissection_.order(n, begin_, row_, threads, permutation_)) {
+      return false;
+    }
     inverse_.resize(n);
     for (int k = 0; k < n; ++k) inverse_[permutation_[k]] = k;
     // the upper triangle of P A P^T by columns, rows sorted, and where each entry of A goes
@@ -174,27 +282,60 @@ class SparseCholesky {
   int threads() const {
     return scheduled_threads_;
   }
-  // solution = A^-1 rhs
-  bool solve(const std::vector<double>& rhs, std::vector<double>& solution) {
-    permuted_.resize(rhs.size());
+  // solution = A^-1 rhs: L y = P rhs, then L^T (P solution) = D^-1 y, on the factor's columns.
+  // Split as the factorization is: a subtree row's y takes terms only from its own subtree's
+  // columns, so the subtrees' columns run at once, each on its chain's thread, leaving out their
+  // entries in the top's rows; then one pass over every column's entries in the top's rows, in
+  // column order, completes those. Every y_i subtracts its terms in increasing column order and
+  // every x_j its terms in increasing row order, as a plain column-by-column solve does: the
+  // same bits for every split.
+  void solve(const std::vector<double>& rhs, std::vector<double>& solution) {
+    permuted_.resize(n_);
     for (int i = 0; i < n_; ++i) permuted_[inverse_[i]] = rhs[i];
-    cholmod_dense b{};
-    b.nrow = permuted_.size();
-    b.ncol = 1;
-    b.nzmax = permuted_.size();
-    b.d = permuted_.size();
-    b.x = permuted_.data();
-    b.xtype = CHOLMOD_REAL;
-    b.dtype = CHOLMOD_DOUBLE;
-    if (!cholmod_solve2(CHOLMOD_A, factor_, &b, nullptr, &x_, nullptr, &y_, &e_, &common_))
-      return false;
-    const double* x = static_cast<const double*>(x_->x);
-    for (int i = 0; i < n_; ++i) solution[i] = x[inverse_[i]];
-    return true;
+    const int* begin = static_cast<const int*>(factor_->p);
+    const int* count = static_cast<const int*>(factor_->nz);
+    const int* row = static_cast<const int*>(factor_->i);
+    const double* value = static_cast<const double*>(factor_->x);
+    double* y = permuted_.data();
+    // column j's entries in [begin_j + 1 + skip_front, end - skip_back): its diagonal (D_jj) at
+    // begin_j, its rows increasing after it
+    auto forward = [&](int j, int skip_back) {
+      const double yj = y[j];
+      for (int p = begin[j] + 1; p < begin[j] + count[j] - skip_back; ++p)
+        y[row[p]] -= value[p] * yj;
+    };
+    auto backward = [&](int j) {
+      double xj = y[j] / value[begin[j]];
+      for (int p = begin[j] + 1; p < begin[j] + count[j]; ++p) xj -= value[p] * y[row[p]];
+      y[j] = xj;
+    };
+    const int threads = scheduled_threads_;
+    if (threads <= 1) {
+      for (int j = 0; j < n_; ++j) forward(j, 0);
+      for (int j = n_ - 1; j >= 0; --j) backward(j);
+    } else {
+#pragma omp parallel num_threads(threads)
+      for (int chain = omp_get_thread_num(); chain < threads; chain += omp_get_num_threads())
+        for (int r = solve_chain_begin_[chain]; r < solve_chain_begin_[chain + 1]; ++r)
+          forward(solve_chain_row_[r], top_count_[solve_chain_row_[r]]);
+      for (int j = 0; j < n_; ++j) {
+        const double yj = y[j];
+        for (int p = begin[j] + count[j] - top_count_[j]; p < begin[j] + count[j]; ++p)
+          y[row[p]] -= value[p] * yj;
+      }
+      for (int r = solve_chain_begin_[threads + 1] - 1; r >= solve_chain_begin_[threads]; --r)
+        backward(solve_chain_row_[r]);
+#pragma omp parallel num_threads(threads)
+      for (int chain = omp_get_thread_num(); chain < threads; chain += omp_get_num_threads())
+        for (int r = solve_chain_begin_[chain + 1] - 1; r >= solve_chain_begin_[chain]; --r)
+          backward(solve_chain_row_[r]);
+    }
+    for (int i = 0; i < n_; ++i) solution[i] = y[inverse_[i]];
   }
 
  private:
-  // factorizations with fewer rows stay on one thread: the split would cost more than it gains
+  // matrices with fewer rows are ordered by AMD alone and factorized on one thread: the split
+  // would cost more than it gains
   static constexpr int kParallelRows = 4096;
   // subtrees are packed onto threads once the heaviest is within this factor of a thread's share
   static constexpr double kBalance = 1.05;
@@ -202,12 +343,6 @@ class SparseCholesky {
   static constexpr int kMaxPackings = 64;
   // a split is used when its estimated time is below this fraction of one thread's
   static constexpr double kWorthwhile = 0.9;
-
-  static void start(cholmod_common& common) {
-    cholmod_start(&common);
-    common.print = 0;
-    common.error_handler = nullptr;
-  }
 
   // The rows each thread factorizes (chains through link_, from chain_start_[t]; the top's
   // chain from chain_start_[threads]), each chain in increasing row order. One thread, or a
@@ -322,10 +457,31 @@ class SparseCholesky {
         link_[last[chain]] = j;
       last[chain] = j;
     }
+    // the solve's chains, row 0 in its own (chain `threads`: the top), and the entries of each
+    // column in the top's rows: the last ones of the column, the top's rows coming after its
+    // subtree's (a column's rows are its ancestors, increasing up the tree)
+    solve_chain_begin_.assign(threads + 3, 0);
+    for (int j = 0; j < n; ++j) ++solve_chain_begin_[(owner_[j] >= 0 ? owner_[j] : threads) + 2];
+    for (int c = 0; c <= threads; ++c) solve_chain_begin_[c + 2] += solve_chain_begin_[c + 1];
+    solve_chain_row_.resize(n);
+    for (int j = 0; j < n; ++j)
+      solve_chain_row_[solve_chain_begin_[(owner_[j] >= 0 ? owner_[j] : threads) + 1]++] = j;
+    top_count_.assign(n, 0);
+    std::vector<int>& mark = fill_;  // free again
+    mark.assign(n, -1);
+    for (int k = 0; k < n; ++k) {
+      if (owner_[k] >= 0) continue;
+      mark[k] = k;
+      for (int e = upper_begin_[k]; e < upper_begin_[k + 1]; ++e)
+        for (int i = upper_row_[e]; i >= 0 && i < k && mark[i] != k; i = parent_[i]) {
+          mark[i] = k;
+          ++top_count_[i];
+        }
+    }
     // each thread's own workspace, sized here, outside the factorizations
     while (static_cast<int>(thread_common_.size()) < threads) {
       thread_common_.emplace_back();
-      start(thread_common_.back());
+      startCommon(thread_common_.back());
     }
     for (int t = 0; t < threads; ++t)
       if (!cholmod_allocate_work(n, n, n, &thread_common_[t])) return false;
@@ -361,11 +517,14 @@ class SparseCholesky {
   std::vector<double> upper_value_, permuted_;
   cholmod_sparse upper_{};
   cholmod_factor* factor_ = nullptr;
-  cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
+  DissectionOrdering dissection_;
   // the split over threads (schedule)
   int requested_threads_ = 0;  // the thread count the split was made for (0: none yet)
   int scheduled_threads_ = 1;  // the threads it uses
   std::vector<int> parent_, child_begin_, child_, owner_, chain_start_, link_;
+  // the solve's split: chain c's rows from solve_chain_begin_[c] (the top's: c = threads), and
+  // each column's entries in the top's rows
+  std::vector<int> solve_chain_begin_, solve_chain_row_, top_count_;
   std::vector<int> best_roots_, best_owner_, packed_roots_, packed_owner_;
   std::vector<double> subtree_work_, load_;
   std::deque<cholmod_common> thread_common_;  // a deque: started commons must not move
@@ -627,7 +786,9 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
     reducedMatrix(ws, n, ws.binding, threads);
     each([&](long i) { ws.g_trial[i] = ws.binding[i] ? 0.0 : -ws.g[i]; });
     ++stats.iterations;
-    return ws.cholesky->factorize(ws.factor_value) && ws.cholesky->solve(ws.g_trial, ws.d);
+    if (!ws.cholesky->factorize(ws.factor_value)) return false;
+    ws.cholesky->solve(ws.g_trial, ws.d);
+    return true;
   };
   auto keepIfBest = [&](const std::vector<double>& xp, const std::vector<double>& gp) {
     const double residual = naturalResidualOnThreads(set, xp, gp, ws, threads);

@@ -5,7 +5,8 @@
 //   min_x  f(x) = 1/2 x^T A x + b^T x,   lower <= x <= upper,   A = J^T K = E^T H^T M^-1 H E,
 //
 // A formed explicitly from the operator's columns (QpOperator::columns), its pattern ordered
-// (AMD) and analysed when it differs from the last solve's, then factorized by SuiteSparse
+// (AMD; from 4096 rows, METIS's separator last and CAMD on its two sides) and analysed when it
+// differs from the last solve's, then factorized by SuiteSparse
 // CHOLMOD's simplicial LDL^T on a copy permuted once per pattern, so that no step allocates. Two
 // kinds of step, each one numeric factorization of A reduced to the free variables (the others'
 // rows and columns replaced by the identity, so every step refactors the same pattern), plus rho I
@@ -33,8 +34,9 @@
 // Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
 // 3D contact network: it pays where CG needs many iterations (deep piles, tight tolerances).
 // On MprgpSettings::threads threads: the factorization split along the elimination tree
-// (disjoint subtrees at once, then the rows above them), the products with A row by row, the
-// vector loops by variables and their sums in fixed chunks; the same bits for every count.
+// (disjoint subtrees at once, then the rows above them) and so are the triangular solves, the
+// products with A row by row, the vector loops by variables and their sums in fixed chunks; the
+// same bits for every count.
 #include <memory>
 #include <utility>
 #include <vector>

@@ -145,7 +145,7 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
 // allocates nothing either.
 TEST(NoAllocation, ThreadedNewtonSolveOnItsSecondCall) {
   std::mt19937 rng(5);
-  const test::GridProgram program(90, rng);
+  const test::NetworkProgram program = test::gridProgram(90, rng);
   SeparableSet set;
   for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
   MprgpSettings settings;

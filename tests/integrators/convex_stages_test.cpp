@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <random>
 
 #include "integrators/mprgp.hpp"
@@ -250,7 +251,7 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
 // again on a second solve of the same pattern (the refactorization path).
 TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
   std::mt19937 rng(5);
-  const test::GridProgram program(90, rng);  // 16 020 variables
+  const test::NetworkProgram program = test::gridProgram(90, rng);  // 16 020 variables
   SeparableSet set;
   for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
   ASSERT_TRUE(projectedNewtonApplies(set));
@@ -282,6 +283,70 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
       }
       EXPECT_TRUE(x == x_one) << threads << " threads, solve " << solve;
       EXPECT_TRUE(v == v_one) << threads << " threads, solve " << solve;
+    }
+  }
+}
+
+// Programs large enough to be ordered by dissection (projected_newton.cpp), of graphs that
+// METIS's separator meets at its edges: no entry off the diagonal (contacts with the ground
+// alone), many small components, a long thin strip, a grid with loose contacts beside it.
+// Each is solved by Newton steps alone, to the tolerance, with the same bits on 1 and 2
+// threads.
+TEST(ProjectedNewton, LargeProgramsOfAnyGraphShape) {
+  struct Shape {
+    const char* name;
+    std::function<test::NetworkProgram(std::mt19937&)> build;
+  };
+  const std::vector<Shape> shapes = {
+      {"ground contacts only",
+       [](std::mt19937& rng) {
+         test::NetworkProgram program(6000);
+         for (int k = 0; k < 6000; ++k) program.addContact(k, -1, k % 2 == 0, rng);
+         return program;
+       }},
+      {"120 small grids",
+       [](std::mt19937& rng) {
+         test::NetworkProgram program(120 * 36);
+         for (int g = 0; g < 120; ++g) program.addGrid(36 * g, 6, 6, rng);
+         return program;
+       }},
+      {"a 3 x 2000 strip",
+       [](std::mt19937& rng) {
+         test::NetworkProgram program(3 * 2000);
+         program.addGrid(0, 2000, 3, rng);
+         for (int i = 0; i < 2000; i += 50) program.addContact(3 * i, -1, true, rng);
+         return program;
+       }},
+      {"a grid and loose contacts",
+       [](std::mt19937& rng) {
+         test::NetworkProgram program(50 * 50 + 2000);
+         program.addGrid(0, 50, 50, rng);
+         for (int k = 0; k < 2000; ++k) program.addContact(2500 + k, -1, true, rng);
+         return program;
+       }},
+  };
+  for (const Shape& shape : shapes) {
+    std::mt19937 rng(11);
+    const test::NetworkProgram program = shape.build(rng);
+    ASSERT_GE(program.variables(), 4096) << shape.name << ": too small to be dissected";
+    SeparableSet set;
+    for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
+    std::vector<double> x_one;
+    for (int threads : {1, 2}) {
+      MprgpSettings settings;
+      settings.tolerance = 1e-10;
+      settings.threads = threads;
+      ProjectedNewtonWorkspace ws;
+      MprgpWorkspace fallback;
+      std::vector<double> x(program.variables(), 0.0);
+      VectorX v = VectorX::Zero(program.velocities());
+      const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+      ASSERT_TRUE(stats.converged) << shape.name << ", residual " << stats.residual;
+      EXPECT_EQ(stats.newton_steps, stats.iterations) << shape.name << ": handed to MPRGP";
+      if (threads == 1)
+        x_one = x;
+      else
+        EXPECT_TRUE(x == x_one) << shape.name;
     }
   }
 }

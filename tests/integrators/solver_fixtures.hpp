@@ -111,32 +111,36 @@ inline auto allTangentModes() {
   return ::testing::Values(TangentMode::Global, TangentMode::Local, TangentMode::None);
 }
 
-// A sparse program shaped like a 2D contact network: the velocities are those of the nodes of
-// a side x side grid (two each), the variables its edges (a contact each, >= 0), each column
-// of B the edge's normal at its two ends, weighted by a random inverse mass. Large enough that
-// the factorization is split over threads.
-class GridProgram final : public QpOperator {
+// A sparse program shaped like a 2D contact network: the velocities are those of `nodes`
+// nodes (two each), the variables contacts (>= 0), each between two nodes or a node and the
+// ground: column j of B the contact's normal at its ends, weighted by a random inverse mass.
+class NetworkProgram final : public QpOperator {
  public:
-  GridProgram(int side, std::mt19937& rng) {
+  explicit NetworkProgram(int nodes) : velocities_(2 * nodes) {}
+  // a contact between nodes a and b (b < 0: the ground), its normal along x (or y) tilted
+  void addContact(int a, int b, bool along_x, std::mt19937& rng) {
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-    auto node = [side](int i, int j) { return i * side + j; };
-    for (int i = 0; i < side; ++i)
-      for (int j = 0; j < side; ++j)
+    const double tilt = 0.2 * uniform(rng);
+    const double nx = along_x ? 1.0 : tilt, ny = along_x ? tilt : 1.0;
+    std::vector<std::pair<int, double>>& column = column_.emplace_back();
+    for (int end = 0; end < 2; ++end) {
+      const int k = end == 0 ? a : b;
+      const double sign = end == 0 ? -1.0 : 1.0, w = 1.0 + 0.5 * uniform(rng);
+      if (k < 0) continue;
+      column.push_back({2 * k, sign * nx * w});
+      column.push_back({2 * k + 1, sign * ny * w});
+    }
+    b_.push_back(uniform(rng));  // pressed or pushed apart
+  }
+  // contacts between the neighbours of a rows x columns grid of nodes from `first` on
+  void addGrid(int first, int rows, int columns, std::mt19937& rng) {
+    auto node = [&](int i, int j) { return first + i * columns + j; };
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < columns; ++j)
         for (int dir = 0; dir < 2; ++dir) {
           const int ni = i + (dir == 0), nj = j + (dir == 1);
-          if (ni >= side || nj >= side) continue;
-          const double tilt = 0.2 * uniform(rng);
-          const double nx = dir == 0 ? 1.0 : tilt, ny = dir == 0 ? tilt : 1.0;
-          std::vector<std::pair<int, double>>& column = column_.emplace_back();
-          for (int end = 0; end < 2; ++end) {  // the edge's two ends
-            const int k = end == 0 ? node(i, j) : node(ni, nj);
-            const double sign = end == 0 ? -1.0 : 1.0, w = 1.0 + 0.5 * uniform(rng);
-            column.push_back({2 * k, sign * nx * w});
-            column.push_back({2 * k + 1, sign * ny * w});
-          }
-          b_.push_back(uniform(rng));  // pressed or pushed apart
+          if (ni < rows && nj < columns) addContact(node(i, j), node(ni, nj), dir == 0, rng);
         }
-    velocities_ = 2 * side * side;
   }
   int variables() const { return static_cast<int>(column_.size()); }
   int velocities() const { return velocities_; }
@@ -165,9 +169,16 @@ class GridProgram final : public QpOperator {
   }
 
  private:
+  int velocities_;
   std::vector<std::vector<std::pair<int, double>>> column_;
   std::vector<double> b_;
-  int velocities_ = 0;
 };
+
+// The network of a side x side grid: large enough that the factorization is split over threads.
+inline NetworkProgram gridProgram(int side, std::mt19937& rng) {
+  NetworkProgram program(side * side);
+  program.addGrid(0, side, side, rng);
+  return program;
+}
 
 }  // namespace sweep::test
