@@ -297,8 +297,8 @@ class SparseCholesky {
     const int* row = static_cast<const int*>(factor_->i);
     const double* value = static_cast<const double*>(factor_->x);
     double* y = permuted_.data();
-    // column j's entries in [begin_j + 1 + skip_front, end - skip_back): its diagonal (D_jj) at
-    // begin_j, its rows increasing after it
+    // column j: its diagonal (D_jj) at begin_j, then its rows, increasing; forward takes the
+    // entries up to the last skip_back
     auto forward = [&](int j, int skip_back) {
       const double yj = y[j];
       for (int p = begin[j] + 1; p < begin[j] + count[j] - skip_back; ++p)
@@ -457,9 +457,9 @@ class SparseCholesky {
         link_[last[chain]] = j;
       last[chain] = j;
     }
-    // the solve's chains, row 0 in its own (chain `threads`: the top), and the entries of each
-    // column in the top's rows: the last ones of the column, the top's rows coming after its
-    // subtree's (a column's rows are its ancestors, increasing up the tree)
+    // the solve's chains (row 0 in its owner's; the top's is chain `threads`), and the entries
+    // of each column in the top's rows: the last ones of the column, the top's rows coming after
+    // its subtree's (a column's rows are its ancestors, increasing up the tree)
     solve_chain_begin_.assign(threads + 3, 0);
     for (int j = 0; j < n; ++j) ++solve_chain_begin_[(owner_[j] >= 0 ? owner_[j] : threads) + 2];
     for (int c = 0; c <= threads; ++c) solve_chain_begin_[c + 2] += solve_chain_begin_[c + 1];
