@@ -7,6 +7,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <mutex>
 #include <queue>
 #include <utility>
 
@@ -83,8 +84,14 @@ class DissectionOrdering {
              std::vector<int>& permutation) {
     cholmod_sparse whole = patternView(n, begin, row);
     part_.resize(n);
-    // compress: nodes of equal adjacency merged before METIS sees the graph
-    if (cholmod_bisect(&whole, nullptr, 0, 1, part_.data(), &common_[0]) < 0) return false;
+    {
+      // METIS re-seeds one process-wide generator at each call: two at once (two simulations on
+      // two threads, as Python may run them) would draw from each other's sequence
+      static std::mutex metis;
+      const std::lock_guard<std::mutex> lock(metis);
+      // compress: nodes of equal adjacency merged before METIS sees the graph
+      if (cholmod_bisect(&whole, nullptr, 0, 1, part_.data(), &common_[0]) < 0) return false;
+    }
     // each side's graph with the separator (CAMD's constraint set 1), numbered in the matrix's
     // order
     local_.resize(n);

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <functional>
 #include <random>
+#include <thread>
 
 #include "integrators/mprgp.hpp"
 #include "integrators/projected_newton.hpp"
@@ -349,6 +350,38 @@ TEST(ProjectedNewton, LargeProgramsOfAnyGraphShape) {
         EXPECT_TRUE(x == x_one) << shape.name;
     }
   }
+}
+
+// Two solves at once on two threads of the caller's (two simulations run by Python threads),
+// each ordered by dissection: each gives the bits of the same solve alone. METIS draws from a
+// process-wide generator, which the two would otherwise share.
+TEST(ProjectedNewton, TwoSolvesAtOnceGiveTheBitsOfOne) {
+  std::mt19937 rng(5);
+  const test::NetworkProgram program = test::gridProgram(90, rng);
+  SeparableSet set;
+  for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
+  auto solve = [&](std::vector<double>& x) {
+    MprgpSettings settings;
+    settings.tolerance = 1e-10;
+    settings.threads = 1;
+    ProjectedNewtonWorkspace ws;
+    MprgpWorkspace fallback;
+    // several patterns in a row, as a run's steps would bring
+    for (int round = 0; round < 4; ++round) {
+      x.assign(program.variables(), 0.0);
+      VectorX v = VectorX::Zero(program.velocities());
+      solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+      ws = ProjectedNewtonWorkspace();  // a fresh analysis each round
+    }
+  };
+  std::vector<double> alone;
+  solve(alone);
+  std::vector<double> first, second;
+  std::thread one([&] { solve(first); }), two([&] { solve(second); });
+  one.join();
+  two.join();
+  EXPECT_TRUE(first == alone);
+  EXPECT_TRUE(second == alone);
 }
 
 // Stage 5a on a settled 150-disk pile and on a 120-sphere powder heap: the velocities are
