@@ -38,21 +38,23 @@ void startCommon(cholmod_common& common) {
   common.error_handler = nullptr;
 }
 
-// a CHOLMOD view of the pattern of the symmetric matrix whose lower triangle has the compressed
-// columns (begin, row), rows sorted
-cholmod_sparse patternView(int n, std::vector<int>& begin, std::vector<int>& row) {
-  cholmod_sparse lower{};
-  lower.nrow = lower.ncol = static_cast<size_t>(n);
-  lower.nzmax = row.size();
-  lower.p = begin.data();
-  lower.i = row.data();
-  lower.stype = -1;
-  lower.itype = CHOLMOD_INT;
-  lower.xtype = CHOLMOD_PATTERN;
-  lower.dtype = CHOLMOD_DOUBLE;
-  lower.sorted = 1;
-  lower.packed = 1;
-  return lower;
+// a CHOLMOD view of an n x n matrix's compressed columns (begin, row), rows sorted (values
+// null: the pattern alone; stype -1: the lower triangle of a symmetric one, 1: the upper)
+cholmod_sparse sparseView(int n, std::vector<int>& begin, std::vector<int>& row, double* value,
+                          int stype) {
+  cholmod_sparse m{};
+  m.nrow = m.ncol = static_cast<size_t>(n);
+  m.nzmax = row.size();
+  m.p = begin.data();
+  m.i = row.data();
+  m.x = value;
+  m.stype = stype;
+  m.itype = CHOLMOD_INT;
+  m.xtype = value != nullptr ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+  m.dtype = CHOLMOD_DOUBLE;
+  m.sorted = 1;
+  m.packed = 1;
+  return m;
 }
 
 // The fill-reducing order of a large matrix: one level of nested dissection, constrained
@@ -82,7 +84,7 @@ class DissectionOrdering {
   // compressed columns (begin, row), rows sorted
   bool order(int n, std::vector<int>& begin, std::vector<int>& row, int threads,
              std::vector<int>& permutation) {
-    cholmod_sparse whole = patternView(n, begin, row);
+    cholmod_sparse whole = sparseView(n, begin, row, nullptr, -1);
     part_.resize(n);
     {
       // METIS re-seeds one process-wide generator at each call: two at once (two simulations on
@@ -121,7 +123,7 @@ class DissectionOrdering {
     for (int s = 0; s < 2; ++s) {
       const int m = static_cast<int>(side_node_[s].size());
       if (m == 0) continue;
-      cholmod_sparse lower = patternView(m, side_begin_[s], side_row_[s]);
+      cholmod_sparse lower = sparseView(m, side_begin_[s], side_row_[s], nullptr, -1);
       ordered[s] = cholmod_camd(&lower, nullptr, 0, side_constraint_[s].data(),
                                 side_order_[s].data(), &common_[s]);
     }
@@ -201,7 +203,7 @@ class SparseCholesky {
     begin_ = begin;
     row_ = row;
     const int entries = static_cast<int>(row.size());
-    cholmod_sparse lower = view(n, begin_, row_, nullptr, -1);
+    cholmod_sparse lower = sparseView(n, begin_, row_, nullptr, -1);
     permutation_.resize(n);
     if (n < kParallelRows) {
       if (!cholmod_amd(&lower, nullptr, 0, permutation_.data(), &common_)) return false;
@@ -233,7 +235,7 @@ class SparseCholesky {
       }
     }
     upper_value_.assign(entries, 0.0);
-    upper_ = view(n, upper_begin_, upper_row_, upper_value_.data(), 1);
+    upper_ = sparseView(n, upper_begin_, upper_row_, upper_value_.data(), 1);
     factor_ = cholmod_analyze(&upper_, &common_);
     if (factor_ == nullptr || common_.status != CHOLMOD_OK || factor_->ordering != CHOLMOD_NATURAL)
       return false;
@@ -495,24 +497,6 @@ class SparseCholesky {
     if (!cholmod_allocate_work(n, n, n, &common_)) return false;
     scheduled_threads_ = threads;
     return true;
-  }
-
-  // a CHOLMOD view of compressed columns (values null: the pattern alone)
-  static cholmod_sparse view(int n, std::vector<int>& begin, std::vector<int>& row, double* value,
-                             int stype) {
-    cholmod_sparse m{};
-    m.nrow = m.ncol = static_cast<size_t>(n);
-    m.nzmax = row.size();
-    m.p = begin.data();
-    m.i = row.data();
-    m.x = value;
-    m.stype = stype;
-    m.itype = CHOLMOD_INT;
-    m.xtype = value != nullptr ? CHOLMOD_REAL : CHOLMOD_PATTERN;
-    m.dtype = CHOLMOD_DOUBLE;
-    m.sorted = 1;
-    m.packed = 1;
-    return m;
   }
 
   cholmod_common common_{};
