@@ -66,7 +66,7 @@ cholmod_sparse sparseView(int n, std::vector<int>& begin, std::vector<int>& row,
 // matrix would); the two run at once on two threads; the separator's rows come last. The
 // elimination tree becomes two disjoint trees under the separator's rows, where AMD alone ends
 // its trees of contact networks in a long chain of rows that no thread can share (docs/
-// architecture.md, "The Newton solver's factorization"). The fill stays AMD's. METIS seeds its
+// architecture.md, "Threads are OpenMP"). The fill stays AMD's. METIS seeds its
 // generator with a fixed seed and runs on one thread: the order does not depend on the thread
 // count.
 class DissectionOrdering {
@@ -306,12 +306,11 @@ class SparseCholesky {
     const int* row = static_cast<const int*>(factor_->i);
     const double* value = static_cast<const double*>(factor_->x);
     double* y = permuted_.data();
-    // column j: its diagonal (D_jj) at begin_j, then its rows, increasing; forward takes the
-    // entries up to the last skip_back
-    auto forward = [&](int j, int skip_back) {
+    // column j: its diagonal (D_jj) at begin_j, then its rows, increasing; forward subtracts
+    // its entries from the first-th to the one before the last-th
+    auto forward = [&](int j, int first, int last) {
       const double yj = y[j];
-      for (int p = begin[j] + 1; p < begin[j] + count[j] - skip_back; ++p)
-        y[row[p]] -= value[p] * yj;
+      for (int p = begin[j] + first; p < begin[j] + last; ++p) y[row[p]] -= value[p] * yj;
     };
     auto backward = [&](int j) {
       double xj = y[j] / value[begin[j]];
@@ -320,18 +319,16 @@ class SparseCholesky {
     };
     const int threads = scheduled_threads_;
     if (threads <= 1) {
-      for (int j = 0; j < n_; ++j) forward(j, 0);
+      for (int j = 0; j < n_; ++j) forward(j, 1, count[j]);
       for (int j = n_ - 1; j >= 0; --j) backward(j);
     } else {
 #pragma omp parallel num_threads(threads)
       for (int chain = omp_get_thread_num(); chain < threads; chain += omp_get_num_threads())
-        for (int r = solve_chain_begin_[chain]; r < solve_chain_begin_[chain + 1]; ++r)
-          forward(solve_chain_row_[r], top_count_[solve_chain_row_[r]]);
-      for (int j = 0; j < n_; ++j) {
-        const double yj = y[j];
-        for (int p = begin[j] + count[j] - top_count_[j]; p < begin[j] + count[j]; ++p)
-          y[row[p]] -= value[p] * yj;
-      }
+        for (int r = solve_chain_begin_[chain]; r < solve_chain_begin_[chain + 1]; ++r) {
+          const int j = solve_chain_row_[r];
+          forward(j, 1, count[j] - top_count_[j]);
+        }
+      for (int j = 0; j < n_; ++j) forward(j, count[j] - top_count_[j], count[j]);
       for (int r = solve_chain_begin_[threads + 1] - 1; r >= solve_chain_begin_[threads]; --r)
         backward(solve_chain_row_[r]);
 #pragma omp parallel num_threads(threads)
@@ -454,27 +451,28 @@ class SparseCholesky {
     for (std::size_t r = 0; r < best_roots_.size(); ++r) owner_[best_roots_[r]] = best_owner_[r];
     for (int j = n - 1; j >= 0; --j)
       if (owner_[j] == -2) owner_[j] = parent_[j] >= 0 ? owner_[parent_[j]] : -1;
-    // the chains, in increasing row order (descendants before ancestors)
+    // the chains, in increasing row order (descendants before ancestors); the top's is chain
+    // `threads`
+    auto chainOf = [&](int j) { return owner_[j] >= 0 ? owner_[j] : threads; };
     chain_start_.assign(threads + 1, n);
     link_.assign(n, n);
     std::vector<int> last(threads + 1, -1);
     for (int j = 1; j < n; ++j) {  // row 0 is factorized alone, before the chains
-      const int chain = owner_[j] >= 0 ? owner_[j] : threads;
+      const int chain = chainOf(j);
       if (last[chain] < 0)
         chain_start_[chain] = j;
       else
         link_[last[chain]] = j;
       last[chain] = j;
     }
-    // the solve's chains (row 0 in its owner's; the top's is chain `threads`), and the entries
-    // of each column in the top's rows: the last ones of the column, the top's rows coming after
-    // its subtree's (a column's rows are its ancestors, increasing up the tree)
+    // the solve's chains (row 0 in its owner's), and the entries of each column in the top's
+    // rows: the last ones of the column, the top's rows coming after its subtree's (a column's
+    // rows are its ancestors, increasing up the tree)
     solve_chain_begin_.assign(threads + 3, 0);
-    for (int j = 0; j < n; ++j) ++solve_chain_begin_[(owner_[j] >= 0 ? owner_[j] : threads) + 2];
+    for (int j = 0; j < n; ++j) ++solve_chain_begin_[chainOf(j) + 2];
     for (int c = 0; c <= threads; ++c) solve_chain_begin_[c + 2] += solve_chain_begin_[c + 1];
     solve_chain_row_.resize(n);
-    for (int j = 0; j < n; ++j)
-      solve_chain_row_[solve_chain_begin_[(owner_[j] >= 0 ? owner_[j] : threads) + 1]++] = j;
+    for (int j = 0; j < n; ++j) solve_chain_row_[solve_chain_begin_[chainOf(j) + 1]++] = j;
     top_count_.assign(n, 0);
     std::vector<int>& mark = fill_;  // free again
     mark.assign(n, -1);

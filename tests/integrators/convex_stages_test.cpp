@@ -366,7 +366,7 @@ TEST(ProjectedNewton, TwoSolvesAtOnceGiveTheBitsOfOne) {
     settings.threads = 1;
     ProjectedNewtonWorkspace ws;
     MprgpWorkspace fallback;
-    // several patterns in a row, as a run's steps would bring
+    // four orderings each, as a run's steps would bring (one per new pattern)
     for (int round = 0; round < 4; ++round) {
       x.assign(program.variables(), 0.0);
       VectorX v = VectorX::Zero(program.velocities());
