@@ -3,15 +3,15 @@
 #include <algorithm>
 #include <cmath>
 
-#include "integrators/packed_rows.hpp"
 #include "integrators/projected_newton.hpp"
+#include "integrators/rows.hpp"
 
 namespace sweep {
 
 namespace {
 
-NlgsStats statsOf(const MprgpStats& solve, int rows) {
-  NlgsStats stats;
+SolverStats statsOf(const MprgpStats& solve, int rows) {
+  SolverStats stats;
   stats.iterations = solve.iterations;
   stats.updates = static_cast<long>(solve.products) * rows;
   stats.residual = solve.residual;
@@ -19,44 +19,12 @@ NlgsStats statsOf(const MprgpStats& solve, int rows) {
   return stats;
 }
 
-MprgpSettings mprgpSettings(const NlgsSettings& settings) {
+MprgpSettings mprgpSettings(const SolverSettings& settings) {
   MprgpSettings s;
   s.max_iterations = settings.max_iterations;
   s.tolerance = settings.tolerance;
   s.threads = settings.threads;
   return s;
-}
-
-// The 2D problems' packed rows (ContactProblem::rows2d), when every row has one: the same
-// sums as the generic accessors, read from one array.
-bool packed2d(const ContactProblem& p) {
-  return p.dimension == 2 && static_cast<int>(p.rows2d.size()) == p.size();
-}
-// U_c (normal, tangent) at v, with or without the known part
-inline Vector2 packedVelocity2d(const ContactProblem& p, int c, const VectorX& v, bool known) {
-  const ContactProblem::PackedRow2d& r = p.rows2d[c];
-  Vector2 u = known ? r.known : Vector2::Zero();
-  for (int e = r.begin; e < r.end; ++e) {
-    const ContactProblem::PackedEntry2d& h = p.h2d[e];
-    u.x() += h.normal * v[h.dof];
-    u.y() += h.tangent * v[h.dof];
-  }
-  return u;
-}
-// z += M^-1 H_c (normal, tangent)
-inline void packedApply2d(const ContactProblem& p, int c, double normal, double tangent,
-                          VectorX& z) {
-  const ContactProblem::PackedRow2d& r = p.rows2d[c];
-  for (int e = r.minv_begin; e < r.minv_end; ++e) {
-    const ContactProblem::PackedEntry2d& m = p.minv2d[e];
-    z[m.dof] += m.normal * normal + m.tangent * tangent;
-  }
-}
-
-// The 3D problems' packed rows (ContactProblem::rows3d, entries or body form), when every row
-// has one; compact sphere rows take the generic accessors.
-bool packed3d(const ContactProblem& p) {
-  return p.packed3dComplete() && p.spheres3d.empty();
 }
 
 // Appends the column of a variable whose unit value is the impulse (dP, dR) on row c:
@@ -89,39 +57,26 @@ void appendColumn(const ContactProblem& p, int c, const Vector3& dP, const Vecto
 // (U_N(v) - target_c) / s_c.
 class NormalRows final : public QpOperator {
  public:
-  NormalRows(const ContactProblem& p, const NlgsWorkspace::Convex& ws)
-      : p_(p), ws_(ws), packed_(packed2d(p)), packed3d_(packed3d(p)), rows_(p) {}
+  NormalRows(const ContactProblem& p, const SolverWorkspace::Convex& ws)
+      : p_(p), ws_(ws), rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
     clearVelocities(&ws_.dofs, z);
     for (int c = 0; c < p_.size(); ++c) {
       const int k = ws_.normal_var[c];
       if (k < 0 || x[k] == 0.0) continue;
       const double impulse = x[k] * ws_.normal_scale[c];
-      if (packed_)
-        packedApply2d(p_, c, impulse, 0.0, z);
-      else if (packed3d_)
-        applyPacked3d(rows_.rows[c], rows_, Vector3(impulse, 0, 0), Vector2::Zero(), z);
-      else
-        p_.applyImpulse(c, Vector3(impulse, 0, 0), z);
+      rows_.visit(
+          c, [&](const auto& row) { row.apply(Vector3(impulse, 0.0, 0.0), Vector2::Zero(), z); });
     }
   }
   void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
     for (int c = 0; c < p_.size(); ++c) {
       const int k = ws_.normal_var[c];
       if (k < 0) continue;
-      if (packed_) {
-        const double u = packedVelocity2d(p_, c, v, affine).x();
-        y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u);
-        continue;
-      }
-      if (packed3d_) {
-        const ContactProblem::PackedRow3d& r = rows_.rows[c];
-        const double u = packedNormalVelocity3d(r, rows_, v);
-        y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u - r.known.x());
-        continue;
-      }
-      const double u = p_.localVelocity(c, v).x();
-      y[k] = ws_.normal_scale[c] * (affine ? u - ws_.target[c] : u - p_.known[c].x());
+      rows_.visit(c, [&](const auto& row) {
+        y[k] = ws_.normal_scale[c] *
+               (affine ? row.normalVelocity(v) - ws_.target[c] : row.normalVelocityChange(v));
+      });
     }
   }
   const std::vector<int>* dofs() const override { return &ws_.dofs; }
@@ -134,9 +89,8 @@ class NormalRows final : public QpOperator {
 
  private:
   const ContactProblem& p_;
-  const NlgsWorkspace::Convex& ws_;
-  bool packed_, packed3d_;
-  PackedRows3d rows_;
+  const SolverWorkspace::Convex& ws_;
+  RowReader rows_;
 };
 
 // Stage 5b's rows: normal correction, tangential impulse and rolling impulse of each contact
@@ -144,15 +98,13 @@ class NormalRows final : public QpOperator {
 class FrictionRows final : public QpOperator {
  public:
   FrictionRows(const ContactProblem& p, const FrictionStageOptions& options,
-               const NlgsWorkspace& nlgs)
+               const SolverWorkspace& nlgs)
       : p_(p),
         options_(options),
         nlgs_(nlgs),
         ws_(nlgs.convex),
         dT_(p.dimension - 1),
-        packed_(packed2d(p)),
-        packed3d_(packed3d(p)),
-        rows_(p) {}
+        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
 
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
     clearVelocities(&ws_.dofs, z);
@@ -172,14 +124,8 @@ class FrictionRows final : public QpOperator {
         const double scale = ws_.rolling_scale[c];
         dR = Vector2(x[r] * scale, dT_ == 2 ? x[r + 1] * scale : 0.0);
       }
-      if (packed_) {
-        packedApply2d(p_, c, dP.x(), dP.y(), z);
-      } else if (packed3d_) {
-        if (!dP.isZero(0.0) || !dR.isZero(0.0)) applyPacked3d(rows_.rows[c], rows_, dP, dR, z);
-      } else {
-        if (!dP.isZero(0.0)) p_.applyImpulse(c, dP, z);
-        if (r >= 0) p_.applyRolling(c, dR, z);
-      }
+      if (dP.isZero(0.0) && dR.isZero(0.0)) continue;
+      rows_.visit(c, [&](const auto& row) { row.apply(dP, dR, z); });
     }
   }
 
@@ -189,24 +135,12 @@ class FrictionRows final : public QpOperator {
       if (n < 0 && t < 0 && r < 0) continue;
       Vector3 u;
       Vector2 u_rolling = Vector2::Zero();
-      if (packed_) {
-        const Vector2 u2 = packedVelocity2d(p_, c, v, affine);
-        u = Vector3(u2.x(), u2.y(), 0.0);
-      } else if (packed3d_) {
-        const ContactProblem::PackedRow3d& row = rows_.rows[c];
-        packedVelocity3d(row, rows_, v, u, u_rolling);
-        if (!affine) {
-          u -= row.known;
-          u_rolling -= row.rolling_known;
-        }
-      } else {
-        u = p_.localVelocity(c, v);
-        if (!affine) u -= p_.known[c];
-        if (r >= 0) {
-          u_rolling = p_.rollingVelocity(c, v);
-          if (!affine) u_rolling -= p_.rolling_known[c];
-        }
-      }
+      rows_.visit(c, [&](const auto& row) {
+        if (affine)
+          row.velocity(v, u, u_rolling);
+        else
+          row.velocityChange(v, u, u_rolling);
+      });
       if (n >= 0) y[n] = ws_.normal_scale[c] * (affine ? u.x() - ws_.target[c] : u.x());
       if (t >= 0) {
         Vector2 w(u.y(), dT_ == 2 ? u.z() : 0.0);
@@ -245,15 +179,14 @@ class FrictionRows final : public QpOperator {
  private:
   const ContactProblem& p_;
   const FrictionStageOptions& options_;
-  const NlgsWorkspace& nlgs_;
-  const NlgsWorkspace::Convex& ws_;
+  const SolverWorkspace& nlgs_;
+  const SolverWorkspace::Convex& ws_;
   int dT_;
-  bool packed_, packed3d_;
-  PackedRows3d rows_;
+  RowReader rows_;
 };
 
 // The velocities the rows reach (M^-1 H's support holds H's: a row's components), in order.
-void collectDofs(const ContactProblem& p, int nv, NlgsWorkspace::Convex& ws) {
+void collectDofs(const ContactProblem& p, int nv, SolverWorkspace::Convex& ws) {
   if (static_cast<int>(ws.dof_stamp.size()) != nv) {
     ws.dof_stamp.assign(nv, 0);
     ws.stamp = 0;
@@ -274,8 +207,9 @@ void collectDofs(const ContactProblem& p, int nv, NlgsWorkspace::Convex& ws) {
 
 // The stage's program by the stage's solver: active-set Newton when asked for (auto: in 2D)
 // and every set is a box, else MPRGP on boxes and APGD on discs.
-MprgpStats solveProgram(const ContactProblem& p, const QpOperator& op, const NlgsSettings& settings,
-                        NlgsWorkspace::Convex& ws, ProjectedNewtonWorkspace& newton, VectorX& v) {
+MprgpStats solveProgram(const ContactProblem& p, const QpOperator& op,
+                        const SolverSettings& settings, SolverWorkspace::Convex& ws,
+                        ProjectedNewtonWorkspace& newton, VectorX& v) {
   const bool use_newton = settings.solver == StageSolver::Newton ||
                           (settings.solver == StageSolver::Auto && p.dimension == 2);
   if (use_newton && projectedNewtonApplies(ws.set))
@@ -283,7 +217,7 @@ MprgpStats solveProgram(const ContactProblem& p, const QpOperator& op, const Nlg
   return solveSeparableQp(op, ws.set, mprgpSettings(settings), ws.x, v, ws.mprgp);
 }
 
-void prepareRows(NlgsWorkspace::Convex& ws, int n) {
+void prepareRows(SolverWorkspace::Convex& ws, int n) {
   ws.set.clear();
   ws.normal_var.assign(n, -1);
   ws.tangent_var.assign(n, -1);
@@ -296,11 +230,12 @@ void prepareRows(NlgsWorkspace::Convex& ws, int n) {
 
 }  // namespace
 
-NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& settings,
-                                std::vector<double>& lambda_N, VectorX& v, NlgsWorkspace& nlgs) {
-  NlgsWorkspace::Convex& ws = nlgs.convex;
+SolverStats solveNormalStageConvex(const ContactProblem& p, const SolverSettings& settings,
+                                   std::vector<double>& lambda_N, VectorX& v,
+                                   SolverWorkspace& nlgs) {
+  SolverWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
-  if (n == 0) return NlgsStats{};
+  if (n == 0) return SolverStats{};
   collectDofs(p, static_cast<int>(v.size()), ws);
   prepareRows(ws, n);
   ws.x.clear();
@@ -319,31 +254,25 @@ NlgsStats solveNormalStageMprgp(const ContactProblem& p, const NlgsSettings& set
   const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_normal, v);
   for (int c = 0; c < n; ++c)
     if (ws.normal_var[c] >= 0) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
-  NlgsStats stats = statsOf(solve, n);
+  SolverStats stats = statsOf(solve, n);
   if (!v.allFinite()) stats.status = SolverStatus::Failed;
   return stats;
 }
 
-NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& settings,
-                                 const FrictionStageOptions& options,
-                                 const std::vector<double>& lambda_N, std::vector<double>& delta,
-                                 std::vector<Vector2>& lambda_T, VectorX& v, NlgsWorkspace& nlgs,
-                                 std::vector<Vector2>* R,
-                                 const std::vector<double>* threshold_impulse) {
-  NlgsWorkspace::Convex& ws = nlgs.convex;
+SolverStats solveFrictionStageConvex(const ContactProblem& p, const SolverSettings& settings,
+                                     const FrictionStageOptions& options,
+                                     const std::vector<double>& lambda_N,
+                                     std::vector<double>& delta, std::vector<Vector2>& lambda_T,
+                                     VectorX& v, SolverWorkspace& nlgs, std::vector<Vector2>* R,
+                                     const std::vector<double>* threshold_impulse) {
+  SolverWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
   const int dT = p.dimension - 1;
-  NlgsStats total;
+  SolverStats total;
   if (n == 0) return total;
   collectDofs(p, static_cast<int>(v.size()), ws);
-  const bool global = options.tangents == TangentMode::Global;
   prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, nlgs);
-  // a bilateral row is held whatever the sign of its impulse
-  auto closed = [&](int c) { return lambda_N[c] > 0.0 || p.isBilateral(c); };
-  auto held = [&](int c) { return global && closed(c); };
-  auto guarded = [&](int c) {
-    return global && options.open_contacts == OpenContacts::Unilateral && !closed(c);
-  };
+  const FrictionRowRule rule{p, options, lambda_N};
   auto rollingRow = [&](int c) {
     return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0 && lambda_N[c] > 0.0;
   };
@@ -359,15 +288,12 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
 
   // v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1: conjugate gradients (every block free)
   std::fill(nlgs.offset.begin(), nlgs.offset.end(), Vector2::Zero());
-  bool needs_projection = false;
-  for (int c = 0; c < n; ++c)
-    needs_projection = needs_projection || (closed(c) && p.normal_bias[c] != 0.0);
-  if (global && needs_projection) {
+  if (rule.needsProjection()) {
     prepareRows(ws, n);
     ws.x.clear();
     for (int c = 0; c < n; ++c) {
       const double s_N = std::sqrt(p.delassus[c](0, 0));
-      if (!closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
+      if (!rule.closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
       ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
       ws.normal_scale[c] = 1.0 / s_N;
       ws.target[c] = nlgs.held_normal[c];
@@ -393,14 +319,14 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
     const double s_N = std::sqrt(W(0, 0));
     // rows that move nothing in a direction (a zero diagonal) carry nothing there
     auto usable = [](double scale) { return scale > 0.0 && std::isfinite(scale); };
-    if ((held(c) || guarded(c)) && usable(s_N)) {
+    if ((rule.held(c) || rule.guarded(c)) && usable(s_N)) {
       // a held row's residual is measured against the normal impulse it carries (as NLGS)
       const double carried = s_N * lambda_N[c];
-      ws.normal_var[c] =
-          ws.set.add(held(c) ? BlockSet::Free : BlockSet::NonNegative, 1, 0.0, carried * carried);
+      ws.normal_var[c] = ws.set.add(rule.held(c) ? BlockSet::Free : BlockSet::NonNegative, 1, 0.0,
+                                    carried * carried);
       ws.normal_scale[c] = 1.0 / s_N;
-      ws.target[c] = held(c) ? nlgs.held_normal[c] : -p.normal_bias[c];
-      ws.x.push_back(held(c) ? s_N * delta[c] : std::max(s_N * delta[c], 0.0));
+      ws.target[c] = rule.held(c) ? nlgs.held_normal[c] : -p.normal_bias[c];
+      ws.x.push_back(rule.held(c) ? s_N * delta[c] : std::max(s_N * delta[c], 0.0));
     }
     const double S = nlgs.threshold[c];
     if (S > 0.0) {
@@ -455,7 +381,7 @@ NlgsStats solveFrictionStageMpgp(const ContactProblem& p, const NlgsSettings& se
                     : Vector2::Zero();
     }
   }
-  NlgsStats stats = statsOf(solve, n);
+  SolverStats stats = statsOf(solve, n);
   stats.updates += total.updates;
   if (!v.allFinite()) stats.status = SolverStatus::Failed;
   return stats;

@@ -3,7 +3,7 @@
 // (integrators/mprgp.hpp) on the matrix-free Delassus operator, or by active-set Newton steps
 // on its assembled form (integrators/projected_newton.hpp; solver newton, or auto in 2D). Same
 // inputs, outputs and meaning as solveNormalStage and solveFrictionStage
-// (integrators/nlgs.hpp), which call these when the stage's solver is not nlgs.
+// (integrators/stage_solvers.hpp), which call these when the stage's solver is not nlgs.
 //
 // Stage 5a, the dual of min 1/2 |v - v_free|_M^2 subject to W_N^T v + bias >= 0 on the index
 // set, in the scaled normals Lambda_c = s_c lambda_c (s_c^2 = W_NN,c, unit diagonal):
@@ -24,19 +24,23 @@
 // MPRGP with every block free.
 #include <vector>
 
-#include "integrators/nlgs.hpp"
+#include "integrators/contact_problem.hpp"
+#include "integrators/friction_stage.hpp"
+#include "integrators/solver_settings.hpp"
+#include "integrators/solver_workspace.hpp"
 
 namespace sweep {
 
-NlgsStats solveNormalStageMprgp(const ContactProblem& problem, const NlgsSettings& settings,
-                                std::vector<double>& lambda_N, VectorX& v,
-                                NlgsWorkspace& workspace);
+SolverStats solveNormalStageConvex(const ContactProblem& problem, const SolverSettings& settings,
+                                   std::vector<double>& lambda_N, VectorX& v,
+                                   SolverWorkspace& workspace);
 
-NlgsStats solveFrictionStageMpgp(const ContactProblem& problem, const NlgsSettings& settings,
-                                 const FrictionStageOptions& options,
-                                 const std::vector<double>& lambda_N, std::vector<double>& delta,
-                                 std::vector<Vector2>& lambda_T, VectorX& v,
-                                 NlgsWorkspace& workspace, std::vector<Vector2>* rolling = nullptr,
-                                 const std::vector<double>* threshold_impulse = nullptr);
+SolverStats solveFrictionStageConvex(const ContactProblem& problem, const SolverSettings& settings,
+                                     const FrictionStageOptions& options,
+                                     const std::vector<double>& lambda_N,
+                                     std::vector<double>& delta, std::vector<Vector2>& lambda_T,
+                                     VectorX& v, SolverWorkspace& workspace,
+                                     std::vector<Vector2>* rolling = nullptr,
+                                     const std::vector<double>* threshold_impulse = nullptr);
 
 }  // namespace sweep

@@ -16,7 +16,7 @@
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
 #include "framework/parallel.hpp"
-#include "integrators/packed_rows.hpp"
+#include "integrators/rows.hpp"
 
 namespace sweep {
 
@@ -573,8 +573,8 @@ void TimeStepper::solveMoreauJean() {
   const auto start = Clock::now();
   VectorX& v = v_free_;  // becomes v_{k+1}
   stats_.kinetic_free = metricKinetic(v);
-  const NlgsStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_,
-                                       problem_.rolling ? &R_ : nullptr);
+  const SolverStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_,
+                                         problem_.rolling ? &R_ : nullptr);
   stats_.iterations_stage1 = s.iterations;
   stats_.iterations_stage2 = 0;
   stats_.updates = s.updates;
@@ -615,7 +615,7 @@ void TimeStepper::solveCatchingUp() {
   }
   stats_.kinetic_free = metricKinetic(v);
   // 5a: frictionless inelastic shock on the scaled normals
-  const NlgsStats normal =
+  const SolverStats normal =
       solveNormalStage(problem_, settings_.normal_stage, lambda_N_, v, nlgs_ws_);
   stats_.iterations_stage1 = normal.iterations;
   stats_.updates = normal.updates;
@@ -643,7 +643,7 @@ void TimeStepper::solveCatchingUp() {
         threshold = &threshold_impulse_;
         v = v_stage1_;
       }
-      const NlgsStats friction = solveFrictionStage(
+      const SolverStats friction = solveFrictionStage(
           problem_, settings_.friction_stage, settings_.friction, lambda_N_, delta_, lambda_T_, v,
           nlgs_ws_, problem_.rolling ? &R_ : nullptr, threshold);
       stats_.iterations_stage2 += friction.iterations;
@@ -680,15 +680,9 @@ void TimeStepper::update() {
   stats_.work_normal = stats_.work_tangent = 0.0;
   // packed 3D rows (scheme A's powder rows): one pass for U and U_r, the generic reads' sums
   // to the bit (rows without a rolling row carry R = 0)
-  const bool packed = problem_.packed3dComplete();
-  const PackedRows3d rows(problem_);
+  const RowReader rows(problem_, RowReader::kPacked3d | RowReader::kSpheres3d);
   auto velocities = [&](int c, const VectorX& v, Vector3& u, Vector2& u_rolling) {
-    if (packed) {
-      packedRowVelocity3d(rows, c, v, u, u_rolling);
-      return;
-    }
-    u = problem_.localVelocity(c, v);
-    if (problem_.rolling) u_rolling = problem_.rollingVelocity(c, v);
+    rows.visit(c, [&](const auto& row) { row.velocity(v, u, u_rolling); });
   };
   // {normal, tangential} work, summed in chunks of rows: the same bits on any thread count
   using Work = std::array<double, 2>;
@@ -702,10 +696,7 @@ void TimeStepper::update() {
         sum[0] += P_[c].x() * u_mean.x();
         sum[1] += P_[c].tail<2>().dot(u_mean.tail<2>());
         if (problem_.contact[c] >= 0 && problem_.rolling) {
-          if (packed)
-            velocities(c, v_, u_start, rolling_start);
-          else
-            rolling_start = problem_.rollingVelocity(c, v_);
+          velocities(c, v_, u_start, rolling_start);
           sum[1] += R_[c].dot(0.5 * (rolling_start + rolling_end));
         }
       },

@@ -30,6 +30,7 @@
 #include "contact/detection.hpp"
 #include "integrators/contact_problem.hpp"
 #include "integrators/nlgs.hpp"
+#include "integrators/stage_solvers.hpp"
 
 namespace sweep {
 
@@ -41,12 +42,12 @@ struct SchemeSettings {
   Scheme scheme = Scheme::MoreauJean;
   double h = 1e-4;
   NormalLaw normal_law = NormalLaw::Vel;
-  NlgsSettings coulomb{3000};  // scheme A
+  SolverSettings coulomb{3000};  // scheme A
   // scheme B's stages, solved as convex programs by default (docs/schemes.md, "Convex stage
   // solvers")
-  NlgsSettings normal_stage{1500, StageSolver::Auto};    // 5a
-  NlgsSettings friction_stage{1500, StageSolver::Auto};  // 5b
-  FrictionStageOptions friction;                         // scheme B: tangents, threshold
+  SolverSettings normal_stage{1500, StageSolver::Auto};    // 5a
+  SolverSettings friction_stage{1500, StageSolver::Auto};  // 5b
+  FrictionStageOptions friction;                           // scheme B: tangents, threshold
   // Candidate screening (both schemes): a candidate that is not predicted to close within
   // the step and carried no impulse at the last one is left out of the solve; after it, each
   // one left out is checked against its law (U*_N(k+1) >= 0 with zero impulse, up to
@@ -69,7 +70,7 @@ struct SchemeSettings {
   // to the bit). What each storage buys: docs/architecture.md, "Contact rows in two forms".
   bool packed_rows = true;
   // Threads for the solves (0: every core of the machine). The results are the same bits for
-  // every count (NlgsSettings::parallel_rows); it overrides the stages' own `threads`.
+  // every count (SolverSettings::parallel_rows); it overrides the stages' own `threads`.
   int threads = 0;
   int threadCount() const;  // `threads`, or the machine's cores for 0
   bool compactSphereRows() const {
@@ -178,7 +179,7 @@ class TimeStepper {
   ContactData cdata_;
   ContactProblem problem_;
   ContactProblemWorkspace problem_ws_;
-  NlgsWorkspace nlgs_ws_;
+  SolverWorkspace nlgs_ws_;
   StepStats stats_;
 
   double t_ = 0.0;

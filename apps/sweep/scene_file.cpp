@@ -674,7 +674,7 @@ class SceneParser {
   }
 
   // convex: a stage of scheme B, which may take the convex solver
-  NlgsSettings parseSolver(const YamlField& f, NlgsSettings s, bool convex) {
+  SolverSettings parseSolver(const YamlField& f, SolverSettings s, bool convex) {
     f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
                  "shuffle", "seed", "local_solver", "acceleration", "parallel_rows"});
     const std::string solver = f.text("solver", stageSolverName(s.solver));
@@ -943,7 +943,7 @@ const char* shapeKeyword(ShapeType type) {
   }
 }
 
-void emitSolver(YAML::Emitter& out, const char* key, const NlgsSettings& s) {
+void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "solver" << YAML::Value << stageSolverName(s.solver);
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;

@@ -7,6 +7,7 @@
 #include <new>
 
 #include "integrators/nlgs.hpp"
+#include "integrators/stage_solvers.hpp"
 #include "integrators/projected_newton.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
@@ -53,9 +54,9 @@ TEST(NoAllocation, InsideEverySolver) {
     const VectorX& v_free = step.v_free;
     const int n = problem.size();
     ASSERT_GT(n, 50);
-    NlgsWorkspace ws;
+    SolverWorkspace ws;
     ws.prepare(n, model.nv);
-    NlgsSettings nlgs;
+    SolverSettings nlgs;
     nlgs.max_iterations = 50;
     nlgs.shuffle = true;
 
@@ -68,7 +69,7 @@ TEST(NoAllocation, InsideEverySolver) {
     EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " Moreau-Jean";
     // the coloured sweeps on two threads, with the NNCG momentum: the team of threads is made
     // on the first parallel region, so a first solve runs before the counted one
-    NlgsSettings coloured = nlgs;
+    SolverSettings coloured = nlgs;
     coloured.shuffle = false;
     coloured.parallel_rows = 16;
     coloured.threads = 2;
@@ -116,9 +117,9 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
     const int n = problem.size();
     ASSERT_GT(n, 50);
     for (StageSolver solver : {StageSolver::Mprgp, StageSolver::Newton}) {
-      NlgsWorkspace ws;
+      SolverWorkspace ws;
       ws.prepare(n, pile.scene.model.nv);
-      NlgsSettings settings;
+      SolverSettings settings;
       settings.solver = solver;
       settings.max_iterations = 200;
       FrictionStageOptions options;

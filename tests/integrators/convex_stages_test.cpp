@@ -393,9 +393,9 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
                 : test::settledPile(150, 1500, NormalLaw::Vel, Scheme::CatchingUp);
     const ContactProblem& p = settled.step.problem;
     ASSERT_GT(p.size(), 100);
-    NlgsWorkspace ws;
+    SolverWorkspace ws;
     ws.prepare(p.size(), settled.scene.model.nv);
-    NlgsSettings solver;
+    SolverSettings solver;
     solver.max_iterations = 200000;
     solver.tolerance = 1e-10;
     std::vector<VectorX> velocities;
@@ -404,7 +404,7 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
       solver.solver = method;
       std::vector<double> lambda_N(p.size(), 0.0);
       VectorX v = settled.step.v_free;
-      const NlgsStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
+      const SolverStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
       EXPECT_EQ(stats.status, SolverStatus::Converged) << stageSolverName(method);
       for (double lambda : lambda_N) EXPECT_GE(lambda, 0.0);
       velocities.push_back(v);
@@ -435,9 +435,9 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
         spheres ? test::settledPowderHeap(NormalLaw::Vel)
                 : test::settledPile(150, 1500, NormalLaw::Vel, Scheme::CatchingUp);
     const ContactProblem& p = settled.step.problem;
-    NlgsWorkspace ws;
+    SolverWorkspace ws;
     ws.prepare(p.size(), settled.scene.model.nv);
-    NlgsSettings convex;
+    SolverSettings convex;
     convex.max_iterations = 20000;
     convex.tolerance = 1e-10;
     convex.solver = StageSolver::Mprgp;
@@ -457,7 +457,7 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
         std::vector<Vector2> R(p.size(), Vector2::Zero());
         std::vector<Vector2>* rolling = p.rolling ? &R : nullptr;
         VectorX v = v1;
-        const NlgsStats stats =
+        const SolverStats stats =
             solveFrictionStage(p, convex, options, lambda_N, delta, lambda_T, v, ws, rolling);
         EXPECT_EQ(stats.status, SolverStatus::Converged) << tangentModeName(mode);
         // the Newton steps converge by themselves, well before the hand-over to MPRGP
@@ -470,7 +470,7 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
         }
         const double change = (v - v1).norm();
         ASSERT_GT(change, 0.0);
-        NlgsSettings nlgs;
+        SolverSettings nlgs;
         nlgs.tolerance = 1e-7;
         nlgs.max_iterations = spheres ? 20000 : 1;
         std::vector<double> delta_nlgs = delta;
@@ -481,7 +481,7 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
           std::fill(R_nlgs.begin(), R_nlgs.end(), Vector2::Zero());
         }
         VectorX v_nlgs = v1;
-        const NlgsStats check =
+        const SolverStats check =
             solveFrictionStage(p, nlgs, options, lambda_N, delta_nlgs, lambda_T_nlgs, v_nlgs, ws,
                                p.rolling ? &R_nlgs : nullptr);
         std::printf(
@@ -523,19 +523,19 @@ TEST(ConvexStages, ARowThatMovesNothingCarriesNothing) {
   p.restitution = {0.0};
   p.velocity_start = {Vector3(-1.0, 0.0, 0.0)};
   p.normal_bias = {-0.1};  // asks for a push the row cannot give
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(1, 2);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.solver = StageSolver::Mprgp;
   std::vector<double> lambda_N = {1.0};
   VectorX v = Eigen::Vector2d(1.0, -1.0);
-  const NlgsStats normal = solveNormalStage(p, solver, lambda_N, v, ws);
+  const SolverStats normal = solveNormalStage(p, solver, lambda_N, v, ws);
   EXPECT_NE(normal.status, SolverStatus::Failed);
   EXPECT_EQ(lambda_N[0], 0.0);
   std::vector<double> delta = {0.0};
   std::vector<Vector2> lambda_T = {Vector2::Zero()};
   const std::vector<double> pushed = {1.0};  // a threshold from a normal impulse of 1
-  const NlgsStats friction = solveFrictionStage(p, solver, FrictionStageOptions{}, pushed, delta,
+  const SolverStats friction = solveFrictionStage(p, solver, FrictionStageOptions{}, pushed, delta,
                                                 lambda_T, v, ws, nullptr);
   EXPECT_NE(friction.status, SolverStatus::Failed);
   EXPECT_TRUE(v.allFinite());

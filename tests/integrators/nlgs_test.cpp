@@ -1,5 +1,6 @@
 // The solvers on hand-built contact problems with known answers (reference section 6).
 #include "integrators/nlgs.hpp"
+#include "integrators/stage_solvers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +11,7 @@
 
 #include "framework/dynamics.hpp"
 #include "framework/kinematics.hpp"
-#include "integrators/packed_rows.hpp"
+#include "integrators/rows.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
 #include "models/powder_bed.hpp"
@@ -57,8 +58,8 @@ ContactProblem oneContact(const VectorX& WN, const VectorX& WT, const VectorX& m
   return p;
 }
 
-NlgsSettings tight(int cap) {
-  NlgsSettings s;
+SolverSettings tight(int cap) {
+  SolverSettings s;
   s.max_iterations = cap;
   s.tolerance = 1e-13;
   return s;
@@ -79,9 +80,9 @@ TEST(KaneImpact, MoreauJeanGainsEnergy) {
     const ContactProblem p = oneContact(k.WN, k.WT, k.mass, k.v_minus, mu, e);
     std::vector<Vector3> P = {Vector3::Zero()};
     VectorX v = k.v_minus;
-    NlgsWorkspace ws;
+    SolverWorkspace ws;
     ws.prepare(1, static_cast<int>(v.size()));
-    const NlgsStats s = solveCoulombNlgs(p, tight(3000), P, v, ws);
+    const SolverStats s = solveCoulombNlgs(p, tight(3000), P, v, ws);
     EXPECT_EQ(s.status, SolverStatus::Converged);
     const double dKE = 0.5 * v.squaredNorm() - 0.5 * k.v_minus.squaredNorm();
     EXPECT_NEAR(dKE, expected_dKE, 1e-3) << "mu " << mu << " e " << e;
@@ -101,7 +102,7 @@ TEST(KaneImpact, CatchingUpDoesNotGainEnergy) {
     std::vector<double> lambda_N = {0.0};
     std::vector<Vector2> lambda_T = {Vector2::Zero()};
     VectorX v = k.v_minus;
-    NlgsWorkspace ws;
+    SolverWorkspace ws;
     ws.prepare(1, static_cast<int>(v.size()));
     solveNormalStage(p, tight(1500), lambda_N, v, ws);
     EXPECT_NEAR(lambda_N[0], 2.0, 1e-12);  // stage 1: P_N = 2, v1 = (1, -0.2294)
@@ -136,7 +137,7 @@ TEST(PainleveRod, MoreauJeanJamsWithAFiniteImpulse) {
   EXPECT_NEAR(p.delassus[0](1, 1), 3.4, 1e-12);
   std::vector<Vector3> P = {Vector3::Zero()};
   VectorX v = r.v_free;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(1, static_cast<int>(v.size()));
   solveCoulombNlgs(p, tight(3000), P, v, ws);
   // stick, P = (0.3, 0.4) + O(h): a tangential impact, not h times a force
@@ -152,7 +153,7 @@ TEST(PainleveRod, CatchingUpSlidesWithoutJump) {
   std::vector<double> lambda_N = {0.0};
   std::vector<Vector2> lambda_T = {Vector2::Zero()};
   VectorX v = r.v_free;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(1, static_cast<int>(v.size()));
   solveNormalStage(p, tight(1500), lambda_N, v, ws);
   // the frictionless normal impulse: h N0 with N0 = m g / (1 + 3 cos^2 th) = 0.625 m g
@@ -249,10 +250,10 @@ TEST(ContactIslands, SameAnswerAsOneSolve) {
   ContactProblem whole = islands;
   whole.island_begin.clear();
   whole.island_rows.clear();
-  NlgsSettings tight;
+  SolverSettings tight;
   tight.tolerance = 1e-12;
   tight.max_iterations = 100000;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(islands.size(), model.nv);
   std::vector<Vector3> P1(islands.size(), Vector3::Zero()), P2 = P1;
   VectorX v1 = v_free, v2 = v_free;
@@ -271,9 +272,9 @@ TEST(ResidualCheck, StopsOnceTheResidualIsMetOnAHyperstaticPile) {
   const Scene& scene = pile.scene;
   const test::StepProblem& step = pile.step;
   ASSERT_GT(step.problem.size(), 150);
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(step.problem.size(), scene.model.nv);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 100000;
   solver.tolerance = 1e-10;
   std::vector<Vector3> solution(step.problem.size(), Vector3::Zero());
@@ -284,7 +285,7 @@ TEST(ResidualCheck, StopsOnceTheResidualIsMetOnAHyperstaticPile) {
   std::vector<Vector3> warm = solution;
   for (std::size_t c = 0; c < warm.size(); ++c) warm[c] *= 1.0 + 0.01 * std::sin(1.0 + c);
   solver.tolerance = 1e-6;
-  std::vector<NlgsStats> stats;
+  std::vector<SolverStats> stats;
   for (int interval : {0, 10}) {
     solver.residual_check_interval = interval;
     std::vector<Vector3> P = warm;
@@ -314,9 +315,9 @@ TEST(ResidualCheck, FrictionStageMeasuresHeldRowsAgainstTheirNormalImpulse) {
   const test::StepProblem& step = pile.step;
   const ContactProblem& p = step.problem;
   ASSERT_GT(p.size(), 150);
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(p.size(), scene.model.nv);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 1500;
   solver.tolerance = 1e-4;
   std::vector<double> lambda_N(p.size(), 0.0);
@@ -329,7 +330,7 @@ TEST(ResidualCheck, FrictionStageMeasuresHeldRowsAgainstTheirNormalImpulse) {
     std::vector<double> delta(p.size(), 0.0);
     std::vector<Vector2> lambda_T(p.size(), Vector2::Zero());
     VectorX v = v1;
-    const NlgsStats stats =
+    const SolverStats stats =
         solveFrictionStage(p, solver, options, lambda_N, delta, lambda_T, v, ws);
     sweeps.push_back(stats.iterations);
     if (!scale_with_normal) continue;
@@ -374,9 +375,9 @@ TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
   ASSERT_GT(p.size(), 150);
   VectorX v_free = pile.step.v_free;
   for (const Body& body : scene.model.bodies) v_free[body.v_index + 2] += 500.0;  // spin
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(p.size(), scene.model.nv);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 20000;
   solver.tolerance = 1e-8;
   std::vector<double> lambda_N(p.size(), 0.0);
@@ -404,7 +405,7 @@ TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
     std::vector<double> delta(p.size(), 0.0);
     std::vector<Vector2> lambda_T(p.size(), Vector2::Zero());
     VectorX v = v1;
-    const NlgsStats stats =
+    const SolverStats stats =
         solveFrictionStage(p, solver, options, lambda_N, delta, lambda_T, v, ws);
     EXPECT_EQ(stats.status, SolverStatus::Converged) << openContactsName(mode);
     EXPECT_GT((v - v1).norm(), 1e-3 * v1.norm()) << "friction must act";
@@ -445,26 +446,26 @@ TEST_P(PackedRows, SameAnswerAsTheGenericRows) {
   ContactProblem generic = packed;
   generic.rows2d.clear();
 
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 200;  // both stop at the same sweep: the paths are compared, not
                                 // the converged answers
   FrictionStageOptions options;
   options.tangents = GetParam();
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(packed.size(), scene.model.nv);
   const double scale = step.v_free.norm();
 
   std::vector<Vector3> P1(packed.size(), Vector3::Zero()), P2 = P1;
   VectorX v1 = step.v_free, v2 = step.v_free;
-  const NlgsStats a1 = solveCoulombNlgs(packed, solver, P1, v1, ws);
-  const NlgsStats a2 = solveCoulombNlgs(generic, solver, P2, v2, ws);
+  const SolverStats a1 = solveCoulombNlgs(packed, solver, P1, v1, ws);
+  const SolverStats a2 = solveCoulombNlgs(generic, solver, P2, v2, ws);
   EXPECT_EQ(a1.iterations, a2.iterations);
   EXPECT_LT((v1 - v2).norm(), 1e-12 * scale);
 
   std::vector<double> lambda1(packed.size(), 0.0), lambda2 = lambda1;
   v1 = v2 = step.v_free;
-  const NlgsStats n1 = solveNormalStage(packed, solver, lambda1, v1, ws);
-  const NlgsStats n2 = solveNormalStage(generic, solver, lambda2, v2, ws);
+  const SolverStats n1 = solveNormalStage(packed, solver, lambda1, v1, ws);
+  const SolverStats n2 = solveNormalStage(generic, solver, lambda2, v2, ws);
   EXPECT_EQ(n1.iterations, n2.iterations);
   EXPECT_LT((v1 - v2).norm(), 1e-12 * scale);
 
@@ -472,9 +473,9 @@ TEST_P(PackedRows, SameAnswerAsTheGenericRows) {
   std::vector<Vector2> tangent1(packed.size(), Vector2::Zero()), tangent2 = tangent1;
   const VectorX after_normal = v1;
   v2 = v1;
-  const NlgsStats f1 =
+  const SolverStats f1 =
       solveFrictionStage(packed, solver, options, lambda1, delta1, tangent1, v1, ws);
-  const NlgsStats f2 =
+  const SolverStats f2 =
       solveFrictionStage(generic, solver, options, lambda1, delta2, tangent2, v2, ws);
   EXPECT_GT(f1.iterations, 1);
   EXPECT_EQ(f1.iterations, f2.iterations);
@@ -519,9 +520,9 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   generic.rows3d.clear();
   generic.packed_slot.clear();
 
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 200;  // the paths are compared, not the converged answers
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(packed.size(), scene.model.nv);
   const double scale = step.v_free.norm();
   for (const LocalSolver3d local : {LocalSolver3d::AlartCurnier, LocalSolver3d::Enumeration}) {
@@ -529,8 +530,8 @@ TEST(PackedRows3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
     std::vector<Vector3> P1(packed.size(), Vector3::Zero()), P2 = P1;
     std::vector<Vector2> R1(packed.size(), Vector2::Zero()), R2 = R1;
     VectorX v1 = step.v_free, v2 = step.v_free;
-    const NlgsStats s1 = solveCoulombNlgs(packed, solver, P1, v1, ws, &R1);
-    const NlgsStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
+    const SolverStats s1 = solveCoulombNlgs(packed, solver, P1, v1, ws, &R1);
+    const SolverStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
     EXPECT_EQ(s1.iterations, s2.iterations);
     EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * scale);  // the contacts did act
     EXPECT_LT((v1 - v2).norm(), 1e-10 * scale);
@@ -581,15 +582,15 @@ TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
   ASSERT_EQ(entries.island_begin, bodies.island_begin);
   ASSERT_EQ(entries.island_rows, bodies.island_rows);
 
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 60;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(bodies.size(), scene.model.nv);
   std::vector<Vector3> P1(bodies.size(), Vector3::Zero()), P2 = P1;
   std::vector<Vector2> R1(bodies.size(), Vector2::Zero()), R2 = R1;
   VectorX v1 = step.v_free, v2 = step.v_free;
-  const NlgsStats s1 = solveCoulombNlgs(bodies, solver, P1, v1, ws, &R1);
-  const NlgsStats s2 = solveCoulombNlgs(entries, solver, P2, v2, ws, &R2);
+  const SolverStats s1 = solveCoulombNlgs(bodies, solver, P1, v1, ws, &R1);
+  const SolverStats s2 = solveCoulombNlgs(entries, solver, P2, v2, ws, &R2);
   EXPECT_EQ(s1.iterations, s2.iterations);
   EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * step.v_free.norm());  // the contacts did act
   EXPECT_TRUE(v1 == v2);
@@ -609,9 +610,9 @@ TEST(PackedRows3d, BodyFormGivesTheSameBitsAsTheEntries) {
   v1 = after_normal;
   v2 = after_normal;
   FrictionStageOptions options;
-  const NlgsStats f1 =
+  const SolverStats f1 =
       solveFrictionStage(bodies, solver, options, lambda_N, delta1, tangent1, v1, ws, &R1);
-  const NlgsStats f2 =
+  const SolverStats f2 =
       solveFrictionStage(entries, solver, options, lambda_N, delta2, tangent2, v2, ws, &R2);
   EXPECT_EQ(f1.iterations, f2.iterations);
   EXPECT_GT((v1 - after_normal).norm(), 1e-6 * step.v_free.norm());  // friction did act
@@ -730,9 +731,9 @@ TEST(PackedRows3d, CompactSphereRowsSolveLikeTheBodyForm) {
   generic.packed_slot.clear();
   ASSERT_FALSE(generic.packed3dComplete());
 
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 200;  // the paths are compared, not the converged answers
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(compact.size(), scene.model.nv);
   const double scale = step.v_free.norm();
   for (const LocalSolver3d local : {LocalSolver3d::AlartCurnier, LocalSolver3d::Enumeration}) {
@@ -740,9 +741,9 @@ TEST(PackedRows3d, CompactSphereRowsSolveLikeTheBodyForm) {
     std::vector<Vector3> P1(compact.size(), Vector3::Zero()), P2 = P1, P3 = P1;
     std::vector<Vector2> R1(compact.size(), Vector2::Zero()), R2 = R1, R3 = R1;
     VectorX v1 = step.v_free, v2 = step.v_free, v3 = step.v_free;
-    const NlgsStats s1 = solveCoulombNlgs(compact, solver, P1, v1, ws, &R1);
-    const NlgsStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
-    const NlgsStats s3 = solveCoulombNlgs(bodies, solver, P3, v3, ws, &R3);
+    const SolverStats s1 = solveCoulombNlgs(compact, solver, P1, v1, ws, &R1);
+    const SolverStats s2 = solveCoulombNlgs(generic, solver, P2, v2, ws, &R2);
+    const SolverStats s3 = solveCoulombNlgs(bodies, solver, P3, v3, ws, &R3);
     EXPECT_EQ(s1.iterations, s2.iterations);
     EXPECT_EQ(s1.iterations, s3.iterations);
     EXPECT_GT((v1 - step.v_free).norm(), 1e-3 * scale);  // the contacts did act
@@ -783,11 +784,11 @@ TEST_P(PackedFrictionStage3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   generic.rows3d.clear();
   generic.packed_slot.clear();
 
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 200;  // the paths are compared, not the converged answers
   FrictionStageOptions options;
   options.tangents = GetParam();
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(packed.size(), scene.model.nv);
   const double scale = step.v_free.norm();
   std::vector<double> lambda_N(packed.size(), 0.0);
@@ -798,9 +799,9 @@ TEST_P(PackedFrictionStage3d, SameAnswerAsTheGenericRowsWithRollingResistance) {
   std::vector<Vector2> tangent1(packed.size(), Vector2::Zero()), tangent2 = tangent1;
   std::vector<Vector2> R1(packed.size(), Vector2::Zero()), R2 = R1;
   VectorX v1 = after_normal, v2 = after_normal;
-  const NlgsStats f1 =
+  const SolverStats f1 =
       solveFrictionStage(packed, solver, options, lambda_N, delta1, tangent1, v1, ws, &R1);
-  const NlgsStats f2 =
+  const SolverStats f2 =
       solveFrictionStage(generic, solver, options, lambda_N, delta2, tangent2, v2, ws, &R2);
   EXPECT_GT(f1.iterations, 1);
   EXPECT_EQ(f1.iterations, f2.iterations);
@@ -833,10 +834,10 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
   ASSERT_GT(p.size(), 100);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 100000;
   solver.tolerance = 1e-8;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(p.size(), heap.scene.model.nv);
   std::vector<VectorX> velocities;
   std::vector<int> sweeps;
@@ -845,7 +846,7 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
     std::vector<Vector3> P(p.size(), Vector3::Zero());
     std::vector<Vector2> R(p.size(), Vector2::Zero());
     VectorX v = heap.step.v_free;
-    const NlgsStats stats = solveCoulombNlgs(p, solver, P, v, ws, &R);
+    const SolverStats stats = solveCoulombNlgs(p, solver, P, v, ws, &R);
     EXPECT_EQ(stats.status, SolverStatus::Converged) << nlgsAccelerationName(acceleration);
     EXPECT_LT(stats.residual, solver.tolerance);
     for (int c = 0; c < p.size(); ++c) {  // every impulse in its cone, as a sweep leaves it
@@ -867,10 +868,10 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
 TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 100000;
   solver.tolerance = 1e-8;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(p.size(), heap.scene.model.nv);
   std::vector<VectorX> velocities;
   std::vector<int> sweeps;
@@ -878,7 +879,7 @@ TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {
     solver.acceleration = acceleration;
     std::vector<double> lambda_N(p.size(), 0.0);
     VectorX v = heap.step.v_free;
-    const NlgsStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
+    const SolverStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
     EXPECT_EQ(stats.status, SolverStatus::Converged) << nlgsAccelerationName(acceleration);
     for (double lambda : lambda_N) EXPECT_GE(lambda, 0.0);
     velocities.push_back(v);
@@ -905,10 +906,10 @@ TEST(Relaxation, ARowThatOpensOpensAtOnce) {
   ContactProblem packed = generic;
   packed.pack2d();
   ASSERT_EQ(static_cast<int>(packed.rows2d.size()), 1);
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 1;
   solver.relaxation = 0.9;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(1, 2);
   for (const ContactProblem* p : {&generic, &packed}) {
     std::vector<Vector3> P{Vector3(0.5, 0.1, 0.0)};  // a warm start from a closed contact
@@ -957,25 +958,25 @@ TEST(ColouredSweeps, ComponentsNumberedPastTheVelocities) {
   for (std::array<int, 2>& moved : shifted.row_components)
     for (int& comp : moved)
       if (comp >= 0) comp += offset;
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.parallel_rows = 16;
   solver.max_iterations = 2000;
   solver.tolerance = 1e-4;
   solver.acceleration = NlgsAcceleration::Nncg;
   auto solve = [&](const ContactProblem& problem, int threads, int prepared_components,
-                   NlgsStats* stats = nullptr) {
-    NlgsWorkspace ws;
+                   SolverStats* stats = nullptr) {
+    SolverWorkspace ws;
     ws.prepare(n, nv, prepared_components);
     solver.threads = threads;
     std::vector<Vector3> P(n, Vector3::Zero());
     std::vector<Vector2> R(n, Vector2::Zero());
     VectorX v = heap.step.v_free;
-    const NlgsStats result =
+    const SolverStats result =
         solveCoulombNlgs(problem, solver, P, v, ws, problem.rolling ? &R : nullptr);
     if (stats != nullptr) *stats = result;
     return v;
   };
-  NlgsStats stats;
+  SolverStats stats;
   const VectorX reference = solve(p, 1, components, &stats);
   EXPECT_EQ(stats.status, SolverStatus::Converged);
   EXPECT_TRUE(solve(shifted, 1, components + offset) == reference);
@@ -995,9 +996,9 @@ TEST(ColouredSweeps, ComponentsNumberedPastTheVelocities) {
 TEST(NncgAcceleration, OneSweepIsPlainGaussSeidel) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
-  NlgsSettings solver;
+  SolverSettings solver;
   solver.max_iterations = 1;
-  NlgsWorkspace ws;
+  SolverWorkspace ws;
   ws.prepare(p.size(), heap.scene.model.nv);
   std::vector<VectorX> velocities;
   for (const NlgsAcceleration acceleration : {NlgsAcceleration::None, NlgsAcceleration::Nncg}) {

@@ -1,0 +1,165 @@
+// Scheme A's coupled Newton-Coulomb problem by NLGS (integrators/nlgs.hpp): sweeps of
+// coulombUpdate (integrators/contact_laws.hpp) over each island's rows.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "integrators/contact_laws.hpp"
+#include "integrators/nlgs.hpp"
+#include "integrators/rows.hpp"
+#include "integrators/sweeps.hpp"
+
+namespace sweep {
+
+namespace {
+
+// The residual's sums over the rows order[0, count)
+void coulombResidualTerms(const RowReader& rows, const std::vector<Vector3>& P,
+                          const std::vector<Vector2>* R, const VectorX& v, const int* order,
+                          int count, double& f2, double& scale2) {
+  for (int k = 0; k < count; ++k) {
+    const int c = order[k];
+    if (rows.packed3d()) prefetchSphereRow(rows.packedRows3d(), order, k, count, v);
+    rows.visit(c, [&](const auto& row) {
+      coulombResidualTerms(row, P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
+    });
+  }
+}
+
+// chunked: over the coloured sweeps' chunks on `threads` threads, the sums per chunk added in
+// chunk order (the same bits for every thread count); otherwise over ws.order[0, count)
+double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
+                       const std::vector<Vector2>* R, const VectorX& v, SolverWorkspace& ws,
+                       int count, bool chunked = false, int threads = 1) {
+  // every packed form: the residual reads what the generic arrays hold, to the bit
+  const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
+  if (chunked) {
+    const int chunks = ws.colour_chunk[kColours + 1];
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (int chunk = 0; chunk < chunks; ++chunk) {
+      const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
+      double f2 = 0.0, scale2 = 0.0;
+      coulombResidualTerms(rows, P, R, v, ws.order.data() + first, last - first, f2, scale2);
+      ws.chunk_change2[chunk] = f2;
+      ws.chunk_size2[chunk] = scale2;
+    }
+    double f2 = 0.0, scale2 = 0.0;
+    for (int chunk = 0; chunk < chunks; ++chunk) {
+      f2 += ws.chunk_change2[chunk];
+      scale2 += ws.chunk_size2[chunk];
+    }
+    return relative(f2, scale2);
+  }
+  double f2 = 0.0, scale2 = 0.0;
+  coulombResidualTerms(rows, P, R, v, ws.order.data(), count, f2, scale2);
+  return relative(f2, scale2);
+}
+
+// The rows order[first, last) updated once each, in order.
+struct CoulombSweep {
+  const RowReader& rows;
+  const SolverSettings& settings;
+  std::vector<Vector3>& P;
+  std::vector<Vector2>* R;
+  const int* order;
+
+  [[gnu::always_inline]] void operator()(int first, int last, VectorX& v, double& change2,
+                                         double& size2, int& failures) const {
+    for (int k = first; k < last; ++k) {
+      const int c = order[k];
+      if (rows.packed3d()) prefetchSphereRow(rows.packedRows3d(), order, k, last, v);
+      Vector2* Rc = R != nullptr ? &(*R)[c] : nullptr;
+      rows.visit(c, [&](const auto& row) {
+        coulombUpdate(row, settings.relaxation, settings.local_solver_3d, P[c], Rc, v, change2,
+                      size2, failures);
+      });
+    }
+  }
+};
+
+SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& settings,
+                          std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
+                          SolverWorkspace& ws, int n) {
+  SolverStats stats;
+  // packed 3D rows hold the rolling rows too: read so when R covers every row
+  const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
+  const RowReader rows(
+      p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
+  const bool coloured = n >= settings.parallel_rows && !settings.shuffle && rows.packed() &&
+                        p.row_components.size() == static_cast<std::size_t>(p.size()) &&
+                        ws.row_colour.size() >= static_cast<std::size_t>(n);
+  // the warm start of the island's rows (the other islands move other velocities): a
+  // coloured island's chunk by chunk, as its sweeps go
+  if (coloured) {
+    colourIsland(p, ws, n);
+    forEachColourChunk(ws, settings.threads, [&](int chunk) {
+      const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
+      warmStart(p, P, R, ws.order.data() + first, last - first, v);
+    });
+  } else {
+    warmStart(p, P, R, ws.order.data(), n, v);
+  }
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n,
+                     coloured ? settings.threads : 1);
+  const CoulombSweep sweep{rows, settings, P, R, ws.order.data()};
+  // one chunk of a coloured sweep, its sums kept apart
+  const auto sweepChunk = [&](int chunk) {
+    double change2 = 0.0, size2 = 0.0;
+    int failures = 0;
+    sweep(ws.chunk_begin[chunk], ws.chunk_begin[chunk + 1], v, change2, size2, failures);
+    ws.chunk_change2[chunk] = change2;
+    ws.chunk_size2[chunk] = size2;
+    ws.chunk_failures[chunk] = failures;
+  };
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it, n);
+    double change2 = 0.0, size2 = 0.0;
+    stats.local_failures = 0;
+    if (coloured) {
+      forEachColourChunk(ws, settings.threads, sweepChunk);
+      for (int chunk = 0; chunk < ws.colour_chunk[kColours + 1]; ++chunk) {
+        change2 += ws.chunk_change2[chunk];
+        size2 += ws.chunk_size2[chunk];
+        stats.local_failures += ws.chunk_failures[chunk];
+      }
+    } else {
+      sweep(0, n, v, change2, size2, stats.local_failures);
+    }
+    stats.iterations = it + 1;
+    if (residualDue(settings, it, change2, size2)) {
+      stats.residual = coulombResidual(p, P, R, v, ws, n, coloured, settings.threads);
+      if (stats.residual < settings.tolerance) {
+        stats.status = SolverStatus::Converged;
+        return stats;
+      }
+    }
+    // not after the last sweep: the impulses returned are a sweep's output
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
+  }
+  stats.residual = coulombResidual(p, P, R, v, ws, n, coloured, settings.threads);
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  return stats;
+}
+
+}  // namespace
+
+SolverStats solveCoulombNlgs(const ContactProblem& p, const SolverSettings& settings,
+                             std::vector<Vector3>& P, VectorX& v, SolverWorkspace& ws,
+                             std::vector<Vector2>* R) {
+  SolverStats total;
+  if (p.size() == 0) return total;
+  prepareNncg(settings, p, v, ws);
+  for (int island = 0; island < p.islandCount(); ++island) {
+    const int n = selectIsland(p, island, ws);
+    SolverStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
+    island_stats.updates = static_cast<long>(island_stats.iterations) * n;
+    mergeIsland(total, island_stats);
+  }
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
+}
+
+}  // namespace sweep

@@ -1,0 +1,198 @@
+// Scheme B's stage 5b: the setup both of its solvers share (integrators/friction_stage.hpp)
+// and its NLGS solver (integrators/nlgs.hpp).
+#include "integrators/friction_stage.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "integrators/contact_laws.hpp"
+#include "integrators/nlgs.hpp"
+#include "integrators/rows.hpp"
+#include "integrators/sweeps.hpp"
+
+namespace sweep {
+
+const char* tangentModeName(TangentMode mode) {
+  switch (mode) {
+    case TangentMode::Global:
+      return "global";
+    case TangentMode::Local:
+      return "local";
+    case TangentMode::None:
+      return "none";
+  }
+  return "?";
+}
+const char* frictionThresholdName(FrictionThreshold threshold) {
+  return threshold == FrictionThreshold::Physical ? "physical" : "metric";
+}
+const char* openContactsName(OpenContacts open) {
+  return open == OpenContacts::Unilateral ? "unilateral" : "free";
+}
+
+FrictionBlock frictionBlock(const ContactProblem& p, int c) {
+  const Matrix3& W = p.delassus[c];
+  FrictionBlock b;
+  b.coupling = W.block<2, 1>(1, 0) / W(0, 0);
+  b.schur = W.block<2, 2>(1, 1) - W.block<2, 1>(1, 0) * W.block<1, 2>(0, 1) / W(0, 0);
+  if (p.dimension == 2) {
+    b.coupling.y() = 0.0;
+    b.schur(0, 1) = b.schur(1, 0) = 0.0;
+    b.schur(1, 1) = 1.0;  // unused direction, kept invertible
+  }
+  return b;
+}
+
+void prepareFrictionStage(const ContactProblem& p, const FrictionStageOptions& options,
+                          const std::vector<double>& lambda_N,
+                          const std::vector<double>* threshold_impulse, const VectorX& v1,
+                          SolverWorkspace& ws) {
+  for (int c = 0; c < p.size(); ++c) {
+    const FrictionBlock block = frictionBlock(p, c);
+    ws.coupling[c] = block.coupling;
+    ws.schur[c] = block.schur;
+    const Matrix3& W = p.delassus[c];
+    double S = p.friction[c] * (threshold_impulse ? (*threshold_impulse)[c] : lambda_N[c]);
+    if (options.threshold == FrictionThreshold::Metric && p.dimension == 2)
+      S *= std::sqrt(W(0, 0) / block.schur(0, 0));
+    ws.threshold[c] = S;
+    ws.held_normal[c] = p.localVelocity(c, v1).x();
+  }
+}
+
+namespace {
+
+// v_N, the M-projection of v1 on the span of the closed normals: v_N = M^-1 N_A y with
+// (N_A^T M^-1 N_A) y = N_A^T v1 (reference 4.3, 5b), by Gauss-Seidel on the closed set; then
+// each row's offset W_T^T v_N. Friction acts on the tangential part of the motion,
+// W_T^T (v - v_N); v_N is zero for e = 0 with VEL, and is what keeps KE(v2) <= KE(v1)
+// otherwise.
+void projectOnClosedNormals(const ContactProblem& p, const SolverSettings& settings,
+                            const FrictionRowRule& rule, const VectorX& v, SolverWorkspace& ws) {
+  const int n = p.size();
+  if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
+  ws.v_normal.setZero();
+  std::fill(ws.y.begin(), ws.y.end(), 0.0);
+  for (int sweep_count = 0; sweep_count < settings.max_iterations; ++sweep_count) {
+    double change2 = 0.0, size2 = 0.0;
+    for (int c = 0; c < n; ++c) {
+      if (!rule.closed(c)) continue;
+      // residual of W_N^T v_N = W_N^T v1 (the known term cancels)
+      const double r = ws.held_normal[c] - p.localVelocity(c, ws.v_normal).x();
+      const double dy = r / p.delassus[c](0, 0);
+      p.applyImpulse(c, Vector3(dy, 0, 0), ws.v_normal);
+      ws.y[c] += dy;
+      change2 += dy * dy;
+      size2 += ws.y[c] * ws.y[c];
+    }
+    if (relative(change2, size2) < settings.tolerance) break;
+  }
+  for (int c = 0; c < n; ++c) {
+    const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
+    ws.offset[c] = Vector2(u.y(), u.z());
+  }
+}
+
+// Applies an admissible warm start: contacts without threshold carry no friction, and the
+// sweep skips them, so nothing may be left on them; a guarded row pushes only, and only when
+// something can move it (`any`: no sweep runs otherwise).
+void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v) {
+  const ContactProblem& p = stage.p;
+  for (int c = 0; c < p.size(); ++c) {
+    if (stage.rule.guarded(c))
+      stage.delta[c] = any ? std::max(stage.delta[c], 0.0) : 0.0;
+    else if (!stage.rule.held(c))
+      stage.delta[c] = 0.0;
+    if (stage.ws.threshold[c] <= 0.0) stage.lambda_T[c].setZero();
+    Vector3 warm = stage.tangentMap(c, stage.lambda_T[c]);
+    warm.x() += stage.delta[c];
+    p.applyImpulse(c, warm, v);
+  }
+  warmStartRolling(p, stage.R, v);
+}
+
+// The sweeps of one island, ws.order[0, count), to the tolerance or the cap.
+SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows,
+                           const SolverSettings& settings, VectorX& v, SolverWorkspace& ws,
+                           int count) {
+  SolverStats stats;
+  auto residual = [&] {
+    double f2 = 0.0, scale2 = 0.0;
+    for (int k = 0; k < count; ++k) {
+      const int c = ws.order[k];
+      rows.visit(c, [&](const auto& row) { stage.residualTerms(row, c, v, f2, scale2); });
+    }
+    return relative(f2, scale2);
+  };
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(stage.p,
+                     std::initializer_list<ImpulseArray>{impulses(&stage.lambda_T),
+                                                         impulses(stage.delta), impulses(stage.R)},
+                     v, ws, count);
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it, count);
+    double change2 = 0.0, size2 = 0.0;
+    for (int k = 0; k < count; ++k) {
+      const int c = ws.order[k];
+      rows.visit(c, [&](const auto& row) { stage.update(row, c, v, change2, size2); });
+    }
+    stats.iterations = it + 1;
+    // the periodic check as in the other stages: with GLOBAL tangents in a hyperstatic heap
+    // the bilateral corrections drift along redundant rows while the friction law is met
+    if (residualDue(settings, it, change2, size2)) {
+      stats.residual = residual();
+      if (stats.residual < settings.tolerance) break;
+    }
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
+  }
+  if (stats.iterations == settings.max_iterations) stats.residual = residual();
+  stats.updates = static_cast<long>(stats.iterations) * count;
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  return stats;
+}
+
+}  // namespace
+
+SolverStats solveFrictionStageNlgs(const ContactProblem& p, const SolverSettings& settings,
+                                   const FrictionStageOptions& options,
+                                   const std::vector<double>& lambda_N, std::vector<double>& delta,
+                                   std::vector<Vector2>& lambda_T, VectorX& v, SolverWorkspace& ws,
+                                   std::vector<Vector2>* R,
+                                   const std::vector<double>* threshold_impulse) {
+  // thresholds frozen from stage 5a; the normal velocities of closed contacts (GLOBAL)
+  // are held at their stage-5a values
+  prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, ws);
+  const FrictionRowRule rule{p, options, lambda_N};
+  std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
+  if (rule.needsProjection()) projectOnClosedNormals(p, settings, rule, v, ws);
+  const FrictionStageRows stage{
+      p, options, rule, ws, lambda_N, delta, lambda_T, R, settings.relaxation};
+  bool any = false;
+  for (int c = 0; c < p.size(); ++c)
+    any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
+  warmStartFriction(stage, any, v);
+  SolverStats total;
+  if (!any) return total;
+  // packed 3D rows hold the rolling rows too: read so when R covers every row (compact
+  // sphere rows from the generic arrays: the stage reads their W's blocks)
+  const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
+  const RowReader rows(p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d : 0u));
+  prepareNncg(settings, p, v, ws);
+  for (int island = 0; island < p.islandCount(); ++island) {
+    const int count = selectIsland(p, island, ws);
+    mergeIsland(total, frictionIsland(stage, rows, settings, v, ws, count));
+  }
+  if (!v.allFinite()) total.status = SolverStatus::Failed;
+  return total;
+}
+
+double tangentNormalPart(const ContactProblem& p, int c, const FrictionStageOptions& options,
+                         const Vector2& lambda_T) {
+  if (options.tangents != TangentMode::Local) return 0.0;
+  return -frictionBlock(p, c).coupling.dot(lambda_T);
+}
+
+}  // namespace sweep
