@@ -60,8 +60,8 @@ int main(int argc, char** argv) {
       "acceleration,spheres,settle_steps,steps,mean_active,sweeps_per_step,cap_hits,"
       "local_solves,solve_seconds,ns_per_local_solve\n");
   for (int i = 0; i < 2; ++i)
-    std::printf("%s,%d,%d,%d,%.0f,%.1f,%d,%.0f,%.3f,%.1f\n", nlgsAccelerationName(accelerations[i]),
-                count, settle, steps, active[i] / steps, sweeps[i] / steps, cap_hits[i], updates[i],
+    std::printf("%s,%d,%d,%d,%.0f,%.1f,%d,%.0f,%.3f,%.1f\n", enumName(accelerations[i]), count,
+                settle, steps, active[i] / steps, sweeps[i] / steps, cap_hits[i], updates[i],
                 solve[i], 1e9 * solve[i] / updates[i]);
   std::printf("# solve time none / nncg: %.2f\n", solve[0] / solve[1]);
 }

@@ -19,7 +19,7 @@ int main() {
       for (int updates : {0, 10}) {
         if (scheme == Scheme::MoreauJean && updates > 0) continue;
         const RockingImpact impact = rockingBlockFirstImpact(parameters, scheme, 1e-4, updates);
-        std::printf("%.2f,%s%s,%.6f,%.6f,%.3e\n", mu, schemeName(scheme),
+        std::printf("%.2f,%s%s,%.6f,%.6f,%.3e\n", mu, enumName(scheme),
                     updates > 0 ? " threshold-updates-10" : "", impact.ratio,
                     housnerRatio(parameters), impact.corner_slip);
       }

@@ -58,9 +58,9 @@ int main() {
     }
     const bool global_b =
         flags.scheme == Scheme::CatchingUp && flags.tangents == TangentMode::Global;
-    std::printf("%s,%s,%s,%s,%.0f,%.0f,%d,%d,%d,%.3g,%.3g,%.3g\n", schemeName(flags.scheme),
-                flags.scheme == Scheme::CatchingUp ? tangentModeName(flags.tangents) : "-",
-                global_b ? openContactsName(flags.open) : "-", normalLawName(flags.law),
+    std::printf("%s,%s,%s,%s,%.0f,%.0f,%d,%d,%d,%.3g,%.3g,%.3g\n", enumName(flags.scheme),
+                flags.scheme == Scheme::CatchingUp ? enumName(flags.tangents) : "-",
+                global_b ? enumName(flags.open) : "-", enumName(flags.law),
                 static_cast<double>(sweeps1) / steps, static_cast<double>(sweeps2) / steps, max1,
                 max2, caps, peak, cumulative, stepper.stats().kinetic);
     std::fflush(stdout);

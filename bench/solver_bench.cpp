@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
         updates += static_cast<double>(s.updates);
         active += s.active;
       }
-      std::printf("%d,%s,%d,%d,%.0f,%.0f,%.4f,%.1f\n", planar ? 2 : 3, schemeName(scheme),
+      std::printf("%d,%s,%d,%d,%.0f,%.0f,%.4f,%.1f\n", planar ? 2 : 3, enumName(scheme),
                   parameters.count, steps, active / steps, updates, solve, 1e9 * solve / updates);
       std::fflush(stdout);
     }

@@ -15,8 +15,8 @@ namespace {
 
 void print(const char* name, Scheme scheme, const std::vector<ConvergencePoint>& points) {
   for (const ConvergencePoint& p : points)
-    std::printf("%s,%s,%.6g,%.6e,%.3f\n", name, schemeName(scheme), p.h, p.error, p.order);
-  std::fprintf(stderr, "%s %s: fitted order %.3f\n", name, schemeName(scheme), fittedOrder(points));
+    std::printf("%s,%s,%.6g,%.6e,%.3f\n", name, enumName(scheme), p.h, p.error, p.order);
+  std::fprintf(stderr, "%s %s: fitted order %.3f\n", name, enumName(scheme), fittedOrder(points));
   std::fflush(stdout);
 }
 

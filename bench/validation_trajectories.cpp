@@ -48,8 +48,8 @@ void schemes(const char* name, const Scene& scene, double h, double t_end, doubl
         for (const Vector3& P : stepper.impulses()) impulse += P.x();
       }
       const Eigen::Vector2d x = coordinates(stepper.q(), stepper.v());
-      std::printf("%s,%s,%.6f,%.9e,%.9e,%.9e,%.6e\n", name, schemeName(scheme), stepper.time(),
-                  x[0], x[1], stepper.energy() + (extra ? extra(stepper.q()) : 0.0), impulse);
+      std::printf("%s,%s,%.6f,%.9e,%.9e,%.9e,%.6e\n", name, enumName(scheme), stepper.time(), x[0],
+                  x[1], stepper.energy() + (extra ? extra(stepper.q()) : 0.0), impulse);
     }
   }
 }

@@ -18,10 +18,6 @@ const char* detectionPathName(DetectionPath path) {
                                          : "FCL (dynamic AABB tree, GJK/EPA)";
 }
 
-const char* marginRuleName(MarginRule rule) {
-  return rule == MarginRule::Absolute ? "absolute" : "relative";
-}
-
 void DetectionSettings::validate() const {
   const auto show = formatValue;
   if (!(std::isfinite(speed_factor) && speed_factor >= 0.0))

@@ -8,6 +8,8 @@
 #include "contact/shape.hpp"
 #include "framework/model.hpp"
 
+#include "framework/enum_names.hpp"
+
 namespace sweep {
 
 // The frame a shape is attached to: the world, a body of the Model (any joint), or a
@@ -38,6 +40,13 @@ struct Geometry {
 // narrowphase (GJK/EPA through libccd for general convex pairs, BVH for meshes).
 enum class DetectionPath { Analytic, Fcl };
 enum class DetectionPathChoice { Automatic, Analytic, Fcl };
+template <>
+struct EnumNames<DetectionPathChoice> {
+  static constexpr EnumName<DetectionPathChoice> table[] = {
+      {DetectionPathChoice::Automatic, "automatic"},
+      {DetectionPathChoice::Analytic, "analytic"},
+      {DetectionPathChoice::Fcl, "fcl"}};
+};
 
 const char* detectionPathName(DetectionPath path);
 
@@ -62,7 +71,11 @@ enum class MarginRule {
   // them. Needs verify_margin, which checks the end velocities against it.
   Relative,
 };
-const char* marginRuleName(MarginRule rule);
+template <>
+struct EnumNames<MarginRule> {
+  static constexpr EnumName<MarginRule> table[] = {{MarginRule::Absolute, "absolute"},
+                                                   {MarginRule::Relative, "relative"}};
+};
 
 struct DetectionSettings {
   DetectionPathChoice path = DetectionPathChoice::Automatic;

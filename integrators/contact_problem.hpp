@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "framework/data.hpp"
+#include "framework/enum_names.hpp"
 
 namespace sweep {
 
@@ -24,7 +25,11 @@ enum class NormalLaw {
   Iqs,  // U_N + [g]_+ / tau >= 0 on every candidate (Jean's inelastic quasi-shock)
   Pos,  // U_N + g / tau >= 0 on every candidate: g(q_m) + h/2 U_N(k+1) >= 0
 };
-const char* normalLawName(NormalLaw law);
+template <>
+struct EnumNames<NormalLaw> {
+  static constexpr EnumName<NormalLaw> table[] = {
+      {NormalLaw::Vel, "vel"}, {NormalLaw::Iqs, "iqs"}, {NormalLaw::Pos, "pos"}};
+};
 
 struct ContactProblem {
   int dimension = 2;  // local size d: 2 (normal, tangent) or 3

@@ -259,59 +259,52 @@ SolverStats solveNormalStageConvex(const ContactProblem& p, const SolverSettings
   return stats;
 }
 
-SolverStats solveFrictionStageConvex(const ContactProblem& p, const SolverSettings& settings,
-                                     const FrictionStageOptions& options,
-                                     const std::vector<double>& lambda_N,
-                                     std::vector<double>& delta, std::vector<Vector2>& lambda_T,
-                                     VectorX& v, SolverWorkspace& nlgs, std::vector<Vector2>* R,
-                                     const std::vector<double>* threshold_impulse) {
+namespace {
+
+// v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1 (stage 5b's projection of v1 on the
+// closed normals): conjugate gradients (every block free); then each row's offset W_T^T v_N.
+// Returns the row visits it took.
+long projectOnClosedNormalsByCg(const ContactProblem& p, const SolverSettings& settings,
+                                const FrictionRowRule& rule, const VectorX& v,
+                                SolverWorkspace& nlgs) {
   SolverWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
+  prepareRows(ws, n);
+  ws.x.clear();
+  for (int c = 0; c < n; ++c) {
+    const double s_N = std::sqrt(p.delassus[c](0, 0));
+    if (!rule.closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
+    ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
+    ws.normal_scale[c] = 1.0 / s_N;
+    ws.target[c] = nlgs.held_normal[c];
+    ws.x.push_back(0.0);
+  }
+  if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
+  ws.v_normal.setZero();
+  const NormalRows op(p, ws);
+  const MprgpStats projection =
+      solveProgram(p, op, settings, ws, ws.newton_projection, ws.v_normal);
+  for (int c = 0; c < n; ++c) {
+    const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
+    nlgs.offset[c] = Vector2(u.y(), u.z());
+  }
+  return static_cast<long>(projection.products) * n;
+}
+
+// The program's blocks, each scaled to about a unit diagonal, and the warm start: per row its
+// normal correction (held: free, guarded: >= 0), tangential impulse (a disc, an interval in
+// 2D, the METRIC ellipse as a disc) and rolling impulse.
+void addFrictionBlocks(const ContactProblem& p, const FrictionStageOptions& options,
+                       const FrictionRowRule& rule, const std::vector<double>& delta,
+                       const std::vector<Vector2>& lambda_T, const std::vector<Vector2>* R,
+                       SolverWorkspace& nlgs) {
+  SolverWorkspace::Convex& ws = nlgs.convex;
+  const std::vector<double>& lambda_N = rule.lambda_N;
+  const int n = p.size();
   const int dT = p.dimension - 1;
-  SolverStats total;
-  if (n == 0) return total;
-  collectDofs(p, static_cast<int>(v.size()), ws);
-  prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, nlgs);
-  const FrictionRowRule rule{p, options, lambda_N};
   auto rollingRow = [&](int c) {
     return R != nullptr && p.rolling && p.rolling_bound[c] > 0.0 && lambda_N[c] > 0.0;
   };
-  bool any = false;
-  for (int c = 0; c < n; ++c) any = any || nlgs.threshold[c] > 0.0 || rollingRow(c);
-  if (!any) {
-    // nothing can move the velocities: no friction, no correction
-    std::fill(delta.begin(), delta.end(), 0.0);
-    std::fill(lambda_T.begin(), lambda_T.end(), Vector2::Zero());
-    if (R != nullptr) std::fill(R->begin(), R->end(), Vector2::Zero());
-    return total;
-  }
-
-  // v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1: conjugate gradients (every block free)
-  std::fill(nlgs.offset.begin(), nlgs.offset.end(), Vector2::Zero());
-  if (rule.needsProjection()) {
-    prepareRows(ws, n);
-    ws.x.clear();
-    for (int c = 0; c < n; ++c) {
-      const double s_N = std::sqrt(p.delassus[c](0, 0));
-      if (!rule.closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
-      ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
-      ws.normal_scale[c] = 1.0 / s_N;
-      ws.target[c] = nlgs.held_normal[c];
-      ws.x.push_back(0.0);
-    }
-    if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
-    ws.v_normal.setZero();
-    const NormalRows op(p, ws);
-    const MprgpStats projection =
-        solveProgram(p, op, settings, ws, ws.newton_projection, ws.v_normal);
-    total.updates += static_cast<long>(projection.products) * n;
-    for (int c = 0; c < n; ++c) {
-      const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
-      nlgs.offset[c] = Vector2(u.y(), u.z());
-    }
-  }
-
-  // the program's blocks, each scaled to about a unit diagonal, and the warm start
   prepareRows(ws, n);
   ws.x.clear();
   for (int c = 0; c < n; ++c) {
@@ -366,6 +359,40 @@ SolverStats solveFrictionStageConvex(const ContactProblem& p, const SolverSettin
       if (dT == 2) ws.x.push_back(s_R * (*R)[c].y());
     }
   }
+}
+
+}  // namespace
+
+SolverStats solveFrictionStageConvex(const ContactProblem& p, const SolverSettings& settings,
+                                     const FrictionStageOptions& options,
+                                     const std::vector<double>& lambda_N,
+                                     std::vector<double>& delta, std::vector<Vector2>& lambda_T,
+                                     VectorX& v, SolverWorkspace& nlgs, std::vector<Vector2>* R,
+                                     const std::vector<double>* threshold_impulse) {
+  SolverWorkspace::Convex& ws = nlgs.convex;
+  const int n = p.size();
+  const int dT = p.dimension - 1;
+  SolverStats total;
+  if (n == 0) return total;
+  collectDofs(p, static_cast<int>(v.size()), ws);
+  prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, nlgs);
+  const FrictionRowRule rule{p, options, lambda_N};
+  bool any = false;
+  for (int c = 0; c < n; ++c)
+    any = any || nlgs.threshold[c] > 0.0 ||
+          (R != nullptr && p.rolling && p.rolling_bound[c] > 0.0 && lambda_N[c] > 0.0);
+  if (!any) {
+    // nothing can move the velocities: no friction, no correction
+    std::fill(delta.begin(), delta.end(), 0.0);
+    std::fill(lambda_T.begin(), lambda_T.end(), Vector2::Zero());
+    if (R != nullptr) std::fill(R->begin(), R->end(), Vector2::Zero());
+    return total;
+  }
+
+  std::fill(nlgs.offset.begin(), nlgs.offset.end(), Vector2::Zero());
+  if (rule.needsProjection())
+    total.updates += projectOnClosedNormalsByCg(p, settings, rule, v, nlgs);
+  addFrictionBlocks(p, options, rule, delta, lambda_T, R, nlgs);
   const FrictionRows op(p, options, nlgs);
   const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_friction, v);
   for (int c = 0; c < n; ++c) {

@@ -13,24 +13,6 @@
 
 namespace sweep {
 
-const char* tangentModeName(TangentMode mode) {
-  switch (mode) {
-    case TangentMode::Global:
-      return "global";
-    case TangentMode::Local:
-      return "local";
-    case TangentMode::None:
-      return "none";
-  }
-  return "?";
-}
-const char* frictionThresholdName(FrictionThreshold threshold) {
-  return threshold == FrictionThreshold::Physical ? "physical" : "metric";
-}
-const char* openContactsName(OpenContacts open) {
-  return open == OpenContacts::Unilateral ? "unilateral" : "free";
-}
-
 FrictionBlock frictionBlock(const ContactProblem& p, int c) {
   const Matrix3& W = p.delassus[c];
   FrictionBlock b;

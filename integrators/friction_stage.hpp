@@ -8,6 +8,8 @@
 #include "integrators/contact_problem.hpp"
 #include "integrators/solver_workspace.hpp"
 
+#include "framework/enum_names.hpp"
+
 namespace sweep {
 
 // Tangents of scheme B's friction stage (reference 4.3).
@@ -30,9 +32,21 @@ enum class OpenContacts {
                // into them, and VEL never pushes the overlap back out
 };
 
-const char* tangentModeName(TangentMode mode);
-const char* frictionThresholdName(FrictionThreshold threshold);
-const char* openContactsName(OpenContacts open);
+template <>
+struct EnumNames<TangentMode> {
+  static constexpr EnumName<TangentMode> table[] = {
+      {TangentMode::Global, "global"}, {TangentMode::Local, "local"}, {TangentMode::None, "none"}};
+};
+template <>
+struct EnumNames<FrictionThreshold> {
+  static constexpr EnumName<FrictionThreshold> table[] = {{FrictionThreshold::Physical, "physical"},
+                                                          {FrictionThreshold::Metric, "metric"}};
+};
+template <>
+struct EnumNames<OpenContacts> {
+  static constexpr EnumName<OpenContacts> table[] = {{OpenContacts::Unilateral, "unilateral"},
+                                                     {OpenContacts::Free, "free"}};
+};
 
 struct FrictionStageOptions {
   TangentMode tangents = TangentMode::Global;

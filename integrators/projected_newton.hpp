@@ -45,7 +45,7 @@
 
 namespace sweep {
 
-class SparseCholesky;  // CHOLMOD's state (projected_newton.cpp)
+class SparseCholesky;  // integrators/sparse_cholesky.hpp
 
 struct ProjectedNewtonWorkspace {
   ProjectedNewtonWorkspace();

@@ -6,36 +6,6 @@
 
 namespace sweep {
 
-const char* solverStatusName(SolverStatus status) {
-  switch (status) {
-    case SolverStatus::Converged:
-      return "converged";
-    case SolverStatus::MaxIterations:
-      return "max-iterations";
-    case SolverStatus::Failed:
-      return "failed";
-  }
-  return "?";
-}
-
-const char* nlgsAccelerationName(NlgsAcceleration acceleration) {
-  return acceleration == NlgsAcceleration::Nncg ? "nncg" : "none";
-}
-
-const char* stageSolverName(StageSolver solver) {
-  switch (solver) {
-    case StageSolver::Mprgp:
-      return "mprgp";
-    case StageSolver::Newton:
-      return "newton";
-    case StageSolver::Auto:
-      return "auto";
-    case StageSolver::Nlgs:
-      break;
-  }
-  return "nlgs";
-}
-
 void SolverSettings::validate(const std::string& owner) const {
   const auto show = formatValue;
   if (threads < 1 || threads > 1024)

@@ -5,14 +5,27 @@
 #include <cstdint>
 #include <string>
 
+#include "framework/enum_names.hpp"
+
 namespace sweep {
 
 enum class SolverStatus { Converged, MaxIterations, Failed };
-const char* solverStatusName(SolverStatus status);
+template <>
+struct EnumNames<SolverStatus> {
+  static constexpr EnumName<SolverStatus> table[] = {
+      {SolverStatus::Converged, "converged"},
+      {SolverStatus::MaxIterations, "max-iterations"},
+      {SolverStatus::Failed, "failed"}};
+};
 
 // 3D local solver of scheme A (reference 2.3): Alart-Curnier Newton with a projection
 // fallback (default), or the exact enumeration (a sign scan of the sliding direction).
 enum class LocalSolver3d { AlartCurnier, Enumeration };
+template <>
+struct EnumNames<LocalSolver3d> {
+  static constexpr EnumName<LocalSolver3d> table[] = {
+      {LocalSolver3d::AlartCurnier, "alart-curnier"}, {LocalSolver3d::Enumeration, "enumeration"}};
+};
 
 // Acceleration of the Gauss-Seidel sweeps. Nncg is the nonsmooth nonlinear conjugate gradient
 // of Silcowitz-Hansen, Niebe & Erleben (The Visual Computer 26, 2010): each Gauss-Seidel sweep
@@ -22,7 +35,11 @@ enum class LocalSolver3d { AlartCurnier, Enumeration };
 // on the impulses and, through v = v_free + M^-1 H P, on the velocities. The residual is
 // checked on the Gauss-Seidel iterate, so the solution returned is one sweep's output.
 enum class NlgsAcceleration { None, Nncg };
-const char* nlgsAccelerationName(NlgsAcceleration acceleration);
+template <>
+struct EnumNames<NlgsAcceleration> {
+  static constexpr EnumName<NlgsAcceleration> table[] = {{NlgsAcceleration::None, "none"},
+                                                         {NlgsAcceleration::Nncg, "nncg"}};
+};
 
 // Solver of one of scheme B's stages: nonlinear Gauss-Seidel, or the stage solved as the
 // convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on box sets (stage
@@ -32,7 +49,13 @@ const char* nlgsAccelerationName(NlgsAcceleration acceleration);
 // the funnel, the powder bed and the slider-crank (docs/schemes.md, "Convex stage solvers").
 // Scheme A's coupled Coulomb problem is not convex and takes NLGS only.
 enum class StageSolver { Nlgs, Mprgp, Newton, Auto };
-const char* stageSolverName(StageSolver solver);  // "nlgs", "mprgp", "newton", "auto"
+template <>
+struct EnumNames<StageSolver> {
+  static constexpr EnumName<StageSolver> table[] = {{StageSolver::Auto, "auto"},
+                                                    {StageSolver::Newton, "newton"},
+                                                    {StageSolver::Mprgp, "mprgp"},
+                                                    {StageSolver::Nlgs, "nlgs"}};
+};
 
 struct SolverSettings {
   int max_iterations = 3000;

@@ -32,11 +32,17 @@
 #include "integrators/nlgs.hpp"
 #include "integrators/stage_solvers.hpp"
 
+#include "framework/enum_names.hpp"
+
 namespace sweep {
 
 enum class Scheme { MoreauJean, CatchingUp };
-const char* schemeName(Scheme scheme);           // "moreau-jean", "catching-up"
 Scheme schemeFromName(const std::string& name);  // InputError if unknown
+template <>
+struct EnumNames<Scheme> {
+  static constexpr EnumName<Scheme> table[] = {{Scheme::MoreauJean, "moreau-jean"},
+                                               {Scheme::CatchingUp, "catching-up"}};
+};
 
 struct SchemeSettings {
   Scheme scheme = Scheme::MoreauJean;

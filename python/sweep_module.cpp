@@ -157,7 +157,7 @@ py::dict stepStatsDict(const StepStats& s) {
   d["iterations_stage2"] = s.iterations_stage2;
   d["residual"] = s.residual;
   d["cap_hit"] = s.cap_hit;
-  d["status"] = solverStatusName(s.status);
+  d["status"] = enumName(s.status);
   d["penetration_max"] = s.penetration_max;
   d["penetration_sum"] = s.penetration_sum;
   d["kinetic"] = s.kinetic;
@@ -608,14 +608,11 @@ PYBIND11_MODULE(sweep, m) {
             file.path = "equations";
             file.spec.dimension = dimension;
             file.run.scheme.scheme = schemeFromName(scheme);
-            if (normal_law == "vel")
-              file.run.scheme.normal_law = NormalLaw::Vel;
-            else if (normal_law == "iqs")
-              file.run.scheme.normal_law = NormalLaw::Iqs;
-            else if (normal_law == "pos")
-              file.run.scheme.normal_law = NormalLaw::Pos;
-            else
-              throw InputError("normal_law: must be vel, iqs or pos, got '" + normal_law + "'");
+            const std::optional<NormalLaw> law = enumFromName<NormalLaw>(normal_law);
+            if (!law)
+              throw InputError("normal_law: must be " + enumChoices<NormalLaw>() + ", got '" +
+                               normal_law + "'");
+            file.run.scheme.normal_law = *law;
             if (!(dt > 0.0) || !std::isfinite(dt))
               throw InputError("dt: must be > 0, got " + exactNumber(dt));
             if (!(t_end > 0.0) || !std::isfinite(t_end))
@@ -658,7 +655,7 @@ PYBIND11_MODULE(sweep, m) {
       .def_property_readonly("dt", [](const Simulation& s) { return s.file().run.scheme.h; })
       .def_property_readonly("t_end", [](const Simulation& s) { return s.file().run.t_end; })
       .def_property_readonly(
-          "scheme", [](const Simulation& s) { return schemeName(s.file().run.scheme.scheme); })
+          "scheme", [](const Simulation& s) { return enumName(s.file().run.scheme.scheme); })
       .def_property_readonly("dimension",
                              [](const Simulation& s) { return s.file().spec.dimension; })
       .def_property_readonly("nq", [](const Simulation& s) { return s.scene().model.nq; })

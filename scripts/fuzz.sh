@@ -15,9 +15,10 @@ targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(scene settings snapshot state urdf)
 
 "./scripts/install-deps.sh" --clang
+# -O1 -g1 as in the sanitizer suites (scripts/sanitize.sh)
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-  -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF -DSWEEP_BUILD_BENCHMARKS=OFF \
-  -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_WERROR=ON >/dev/null
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF \
+  -DSWEEP_BUILD_BENCHMARKS=OFF -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_WERROR=ON >/dev/null
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
 
 for target in "${targets[@]}"; do

@@ -73,7 +73,7 @@ int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& opti
         RunOptions run;
         // the first run keeps its per-step record; repeats only time
         if (r == 0)
-          run.out_dir = options.out_dir + "/runs/" + schemeName(scheme) + "_dt" + shortNumber(h);
+          run.out_dir = options.out_dir + "/runs/" + enumName(scheme) + "_dt" + shortNumber(h);
         run.stop = options.stop;
         const RunSummary s = runScene(scene, settings, run);
         interrupted = s.interrupted;

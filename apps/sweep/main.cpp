@@ -36,20 +36,18 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
   const sweep::SchemeSettings& s = file.run.scheme;
   // auto as what it resolves to here (convex_stages.cpp: Newton on 2D problems)
   auto stageSolverShown = [&](sweep::StageSolver solver) {
-    if (solver != sweep::StageSolver::Auto) return std::string(sweep::stageSolverName(solver));
+    if (solver != sweep::StageSolver::Auto) return std::string(sweep::enumName(solver));
     return std::string(file.spec.dimension == 2 ? "newton" : "mprgp") + " (auto)";
   };
-  out << "  scheme: " << sweep::schemeName(s.scheme) << ", h = " << s.h
-      << " s, t_end = " << file.run.t_end << " s, normal law "
-      << sweep::normalLawName(s.normal_law);
+  out << "  scheme: " << sweep::enumName(s.scheme) << ", h = " << s.h
+      << " s, t_end = " << file.run.t_end << " s, normal law " << sweep::enumName(s.normal_law);
   if (s.scheme == sweep::Scheme::CatchingUp)
-    out << ", tangents " << sweep::tangentModeName(s.friction.tangents)
+    out << ", tangents " << sweep::enumName(s.friction.tangents)
         << (s.friction.tangents == sweep::TangentMode::Global
-                ? std::string(" (open contacts ") +
-                      sweep::openContactsName(s.friction.open_contacts) + ")"
+                ? std::string(" (open contacts ") + sweep::enumName(s.friction.open_contacts) + ")"
                 : std::string())
-        << ", threshold " << sweep::frictionThresholdName(s.friction.threshold)
-        << ", stage solvers " << stageSolverShown(s.normal_stage.solver) << " + "
+        << ", threshold " << sweep::enumName(s.friction.threshold) << ", stage solvers "
+        << stageSolverShown(s.normal_stage.solver) << " + "
         << stageSolverShown(s.friction_stage.solver) << ", caps " << s.normal_stage.max_iterations
         << " + " << s.friction_stage.max_iterations;
   else

@@ -331,7 +331,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     stepper.reset(0.0, scene.q0, scene.v0);
 
   RunSummary summary;
-  summary.scheme = schemeName(settings.scheme.scheme);
+  summary.scheme = enumName(settings.scheme.scheme);
   summary.threads = settings.scheme.threadCount();
   summary.dt = h;
   summary.t_end = settings.t_end;

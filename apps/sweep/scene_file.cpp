@@ -639,24 +639,10 @@ class SceneParser {
     f.allowOnly({"path", "speed_factor", "margin_rule", "verify_margin", "margin", "self_collision",
                  "max_initial_overlap", "periodic"});
     DetectionSettings& d = out_.spec.detection;
-    const std::string path = f.text("path", "automatic");
-    if (path == "automatic")
-      d.path = DetectionPathChoice::Automatic;
-    else if (path == "analytic")
-      d.path = DetectionPathChoice::Analytic;
-    else if (path == "fcl")
-      d.path = DetectionPathChoice::Fcl;
-    else
-      f["path"].fail("must be automatic, analytic or fcl");
+    d.path = f.choice("path", DetectionPathChoice::Automatic);
     d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
     d.verify_margin = f.boolean("verify_margin", d.verify_margin);
-    const std::string rule = f.text("margin_rule", marginRuleName(d.margin_rule));
-    if (rule == "absolute")
-      d.margin_rule = MarginRule::Absolute;
-    else if (rule == "relative")
-      d.margin_rule = MarginRule::Relative;
-    else
-      f["margin_rule"].fail("must be absolute or relative");
+    d.margin_rule = f.choice("margin_rule", d.margin_rule);
     d.floor = f.nonNegative("margin", d.floor);
     d.self_collision = f.boolean("self_collision", d.self_collision);
     out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);
@@ -674,22 +660,16 @@ class SceneParser {
   }
 
   // convex: a stage of scheme B, which may take the convex solver
-  SolverSettings parseSolver(const YamlField& f, SolverSettings s, bool convex) {
-    f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
-                 "shuffle", "seed", "local_solver", "acceleration", "parallel_rows"});
-    const std::string solver = f.text("solver", stageSolverName(s.solver));
-    if (solver == "nlgs")
-      s.solver = StageSolver::Nlgs;
-    else if (solver == "mprgp" && convex)
-      s.solver = StageSolver::Mprgp;
-    else if (solver == "newton" && convex)
-      s.solver = StageSolver::Newton;
-    else if (solver == "auto" && convex)
-      s.solver = StageSolver::Auto;
+  // stage: one of scheme B's stages, which choose their solver; scheme A's coupled problem
+  // is not convex and takes NLGS only, with its 3D local solver and its coloured sweeps
+  SolverSettings parseSolver(const YamlField& f, SolverSettings s, bool stage) {
+    if (stage)
+      f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
+                   "shuffle", "seed", "acceleration"});
     else
-      f["solver"].fail(convex
-                           ? "must be auto, newton, mprgp or nlgs"
-                           : "must be nlgs (Jean-Moreau's coupled Coulomb problem is not convex)");
+      f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation",
+                   "shuffle", "seed", "local_solver", "acceleration", "parallel_rows"});
+    if (stage) s.solver = f.choice("solver", s.solver);
     const long cap = f.integer("max_iterations", s.max_iterations);
     if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
     s.max_iterations = static_cast<int>(cap);
@@ -704,20 +684,9 @@ class SceneParser {
     const long seed = f.integer("seed", s.seed);
     if (seed < 0 || seed > 4294967295L) f["seed"].fail("must be in [0, 2^32)");
     s.seed = static_cast<std::uint32_t>(seed);
-    const std::string local = f.text("local_solver", "alart-curnier");
-    if (local == "alart-curnier")
-      s.local_solver_3d = LocalSolver3d::AlartCurnier;
-    else if (local == "enumeration")
-      s.local_solver_3d = LocalSolver3d::Enumeration;
-    else
-      f["local_solver"].fail("must be alart-curnier or enumeration");
-    const std::string acceleration = f.text("acceleration", nlgsAccelerationName(s.acceleration));
-    if (acceleration == "none")
-      s.acceleration = NlgsAcceleration::None;
-    else if (acceleration == "nncg")
-      s.acceleration = NlgsAcceleration::Nncg;
-    else
-      f["acceleration"].fail("must be none or nncg");
+    s.acceleration = f.choice("acceleration", s.acceleration);
+    if (stage) return s;
+    s.local_solver_3d = f.choice("local_solver", LocalSolver3d::AlartCurnier);
     const long parallel_rows = f.integer("parallel_rows", s.parallel_rows);
     if (parallel_rows < 1 || parallel_rows > 1000000000L)
       f["parallel_rows"].fail("must be in [1, 10^9]");
@@ -731,47 +700,14 @@ class SceneParser {
                  "screening_rounds", "screening_gap", "compact_sphere_rows", "packed_rows",
                  "threads"});
     SchemeSettings& s = out_.run.scheme;
-    if (f.has("name")) {
-      const std::string name = f["name"].text();
-      if (name != "moreau-jean" && name != "catching-up")
-        f["name"].fail("must be moreau-jean or catching-up");
-      s.scheme = schemeFromName(name);
-    }
-    const std::string law = f.text("normal_law", "vel");
-    if (law == "vel")
-      s.normal_law = NormalLaw::Vel;
-    else if (law == "iqs")
-      s.normal_law = NormalLaw::Iqs;
-    else if (law == "pos")
-      s.normal_law = NormalLaw::Pos;
-    else
-      f["normal_law"].fail("must be vel, iqs or pos");
-    const std::string tangents = f.text("tangents", "global");
-    if (tangents == "global")
-      s.friction.tangents = TangentMode::Global;
-    else if (tangents == "local")
-      s.friction.tangents = TangentMode::Local;
-    else if (tangents == "none")
-      s.friction.tangents = TangentMode::None;
-    else
-      f["tangents"].fail("must be global, local or none");
+    if (f.has("name")) s.scheme = f.choice("name", s.scheme);
+    s.normal_law = f.choice("normal_law", NormalLaw::Vel);
+    s.friction.tangents = f.choice("tangents", TangentMode::Global);
     const long updates = f.integer("threshold_updates", s.friction.threshold_updates);
     if (updates < 0 || updates > 100) f["threshold_updates"].fail("must be in [0, 100]");
     s.friction.threshold_updates = static_cast<int>(updates);
-    const std::string threshold = f.text("threshold", "physical");
-    if (threshold == "physical")
-      s.friction.threshold = FrictionThreshold::Physical;
-    else if (threshold == "metric")
-      s.friction.threshold = FrictionThreshold::Metric;
-    else
-      f["threshold"].fail("must be physical or metric");
-    const std::string open_contacts = f.text("open_contacts", "unilateral");
-    if (open_contacts == "unilateral")
-      s.friction.open_contacts = OpenContacts::Unilateral;
-    else if (open_contacts == "free")
-      s.friction.open_contacts = OpenContacts::Free;
-    else
-      f["open_contacts"].fail("must be unilateral or free");
+    s.friction.threshold = f.choice("threshold", FrictionThreshold::Physical);
+    s.friction.open_contacts = f.choice("open_contacts", OpenContacts::Unilateral);
     s.screening = f.boolean("screening", s.screening);
     const long rounds = f.integer("screening_rounds", s.screening_rounds);
     if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
@@ -943,17 +879,21 @@ const char* shapeKeyword(ShapeType type) {
   }
 }
 
-void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s) {
+// the keys parseSolver reads, in its order (stage: scheme B's, which choose their solver)
+void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s, bool stage) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
-  out << YAML::Key << "solver" << YAML::Value << stageSolverName(s.solver);
+  if (stage) out << YAML::Key << "solver" << YAML::Value << enumName(s.solver);
   out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
   out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
   out << YAML::Key << "residual_check_interval" << YAML::Value << s.residual_check_interval;
   out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
   out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
   out << YAML::Key << "seed" << YAML::Value << s.seed;
-  out << YAML::Key << "acceleration" << YAML::Value << nlgsAccelerationName(s.acceleration);
-  out << YAML::Key << "parallel_rows" << YAML::Value << s.parallel_rows;
+  out << YAML::Key << "acceleration" << YAML::Value << enumName(s.acceleration);
+  if (!stage) {
+    out << YAML::Key << "local_solver" << YAML::Value << enumName(s.local_solver_3d);
+    out << YAML::Key << "parallel_rows" << YAML::Value << s.parallel_rows;
+  }
   out << YAML::EndMap;
 }
 
@@ -1134,18 +1074,15 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
 
   const SchemeSettings& s = scene.run.scheme;
   out << YAML::Key << "scheme" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "name" << YAML::Value << schemeName(s.scheme);
-  const char* law = s.normal_law == NormalLaw::Vel   ? "vel"
-                    : s.normal_law == NormalLaw::Iqs ? "iqs"
-                                                     : "pos";
-  out << YAML::Key << "normal_law" << YAML::Value << law;
-  out << YAML::Key << "tangents" << YAML::Value << tangentModeName(s.friction.tangents);
-  out << YAML::Key << "threshold" << YAML::Value << frictionThresholdName(s.friction.threshold);
+  out << YAML::Key << "name" << YAML::Value << enumName(s.scheme);
+  out << YAML::Key << "normal_law" << YAML::Value << enumName(s.normal_law);
+  out << YAML::Key << "tangents" << YAML::Value << enumName(s.friction.tangents);
+  out << YAML::Key << "threshold" << YAML::Value << enumName(s.friction.threshold);
   out << YAML::Key << "threshold_updates" << YAML::Value << s.friction.threshold_updates;
-  out << YAML::Key << "open_contacts" << YAML::Value << openContactsName(s.friction.open_contacts);
-  emitSolver(out, "coulomb", s.coulomb);
-  emitSolver(out, "normal_stage", s.normal_stage);
-  emitSolver(out, "friction_stage", s.friction_stage);
+  out << YAML::Key << "open_contacts" << YAML::Value << enumName(s.friction.open_contacts);
+  emitSolver(out, "coulomb", s.coulomb, false);
+  emitSolver(out, "normal_stage", s.normal_stage, true);
+  emitSolver(out, "friction_stage", s.friction_stage, true);
   out << YAML::Key << "screening" << YAML::Value << s.screening;
   out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
   if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;

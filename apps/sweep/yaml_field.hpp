@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "framework/enum_names.hpp"
 #include "framework/spatial.hpp"
 
 namespace sweep {
@@ -55,6 +56,13 @@ class YamlField {
   long integer(const std::string& key, long fallback) const;
   bool boolean(const std::string& key, bool fallback) const;
   std::string text(const std::string& key, const std::string& fallback) const;
+  // One of an enum's names (framework/enum_names.hpp): "must be a, b or c" otherwise
+  template <class E>
+  E choice(const std::string& key, E fallback) const {
+    const std::optional<E> value = enumFromName<E>(text(key, enumName(fallback)));
+    if (!value) (*this)[key].fail("must be " + enumChoices<E>());
+    return *value;
+  }
 
  private:
   std::string quoted() const;  // the value as written, for messages

@@ -167,7 +167,7 @@ class Inputs(unittest.TestCase):
         r = sweep("check", "small_box.yaml", "--set-file", "settings/small_box_fine.yaml")
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("h = 5e-05 s", r.stdout)
-        self.assertIn("normal law POS", r.stdout)
+        self.assertIn("normal law pos", r.stdout)
         self.assertIn("10 with a constant mass block", r.stdout)
         r = sweep("check", "small_box.yaml", "--set-file", "settings/small_box_fine.yaml",
                   "--set", "time.step=2e-5")

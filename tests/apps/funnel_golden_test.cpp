@@ -28,7 +28,7 @@ TEST_P(FunnelGolden, FinalPositionsMatchTheStoredRun) {
   ASSERT_GT(contacts, 10) << "the run must reach the compaction phase to test anything";
 
   const std::string path =
-      std::string(SWEEP_TEST_DATA) + "/golden/funnel_200_" + schemeName(GetParam()) + ".csv";
+      std::string(SWEEP_TEST_DATA) + "/golden/funnel_200_" + enumName(GetParam()) + ".csv";
   const VectorX& q = stepper.q();
   if (std::getenv("SWEEP_UPDATE_GOLDEN") != nullptr) {
     std::ofstream out(path);

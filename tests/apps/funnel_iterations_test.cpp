@@ -50,8 +50,7 @@ StageCounts run500DiskFunnel(StageSolver solver) {
   counts.normal_p95 = percentile95(normal);
   counts.friction_p95 = percentile95(friction);
   std::printf("500-disk funnel, %s: p95 %d (5a) and %d (5b) iterations, %d cap hits, %d contacts\n",
-              stageSolverName(solver), counts.normal_p95, counts.friction_p95, counts.caps,
-              counts.active);
+              enumName(solver), counts.normal_p95, counts.friction_p95, counts.caps, counts.active);
   return counts;
 }
 

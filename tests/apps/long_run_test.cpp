@@ -51,7 +51,7 @@ TEST_P(LongRun, BlockOnInclineDoesNotCreep) {
   const Vector3 end = stepper.q().head<3>();
   const double along = (end - start).head<2>().dot(Eigen::Vector2d(c, s));
   std::printf("block on incline, %s: moved %.3e m along the slope in 10^6 steps\n",
-              schemeName(GetParam()), along);
+              enumName(GetParam()), along);
   EXPECT_LT(std::abs(along), 1e-12);
   EXPECT_LT((end - start).norm(), 1e-12);
 }
@@ -88,7 +88,7 @@ TEST_P(LongRun, DiskColumnStaysPut) {
     if (k % 1000 == 999) worst = std::max(worst, (stepper.q() - scene.q0).cwiseAbs().maxCoeff());
   }
   std::printf("disk column, %s: largest displacement %.3e m over 10^6 steps\n",
-              schemeName(GetParam()), worst);
+              enumName(GetParam()), worst);
   EXPECT_LT(worst, 1e-9);
 }
 

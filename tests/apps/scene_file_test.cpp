@@ -340,7 +340,7 @@ TEST_F(InScenesFolder, ThreeDimensionalSceneWithUrdfBuildsAndRuns) {
     settings.scheme.scheme = scheme;
     const RunSummary s = runScene(scene, settings, {});
     EXPECT_EQ(s.steps, 200);
-    EXPECT_GT(s.max_active, 0) << schemeName(scheme);
+    EXPECT_GT(s.max_active, 0) << enumName(scheme);
     EXPECT_TRUE(std::isfinite(s.energy_final));
   }
 }

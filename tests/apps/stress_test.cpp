@@ -68,7 +68,7 @@ Outcome stress(const std::string& name, const std::string& text, Scheme scheme, 
   std::printf(
       "%-28s %-12s caps %4ld  max sweeps %4d  |v|max %.3g  |v|end %.3g  E rise %.2e  "
       "solve gain %.2e  Wt>0 %ld  pen %.2e / %.2e\n",
-      name.c_str(), schemeName(scheme), out.cap_hits, out.max_iterations, out.max_speed,
+      name.c_str(), enumName(scheme), out.cap_hits, out.max_iterations, out.max_speed,
       out.final_speed, out.worst_energy_rise, out.worst_solve_gain, out.positive_tangent_work,
       out.penetration_early, out.penetration_late);
   return out;

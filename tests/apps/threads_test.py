@@ -18,9 +18,7 @@ from scratch import scratch_dir
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
 SOURCE = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "."
 TIMINGS = {"t_detect", "t_assemble", "t_solve", "t_update"}
-FORCE_COLOURS = ["--set", "scheme.coulomb.parallel_rows=16",
-                 "--set", "scheme.normal_stage.parallel_rows=16",
-                 "--set", "scheme.friction_stage.parallel_rows=16"]
+FORCE_COLOURS = ["--set", "scheme.coulomb.parallel_rows=16"]
 # scene, its options, and the most active rows it must reach (the arm's few contacts are one
 # block of the coloured sweep: it checks that nothing else depends on the thread count)
 CASES = {

@@ -36,7 +36,7 @@ TEST_P(Tutorial, BeadsEndInTheBox) {
   }
   double fastest = 0.0;
   for (int b = 0; b < 60; ++b) fastest = std::max(fastest, stepper.v().segment<2>(3 * b).norm());
-  std::printf("%s: fastest bead %.3g m/s, energy %.3g of the start\n", schemeName(GetParam()),
+  std::printf("%s: fastest bead %.3g m/s, energy %.3g of the start\n", enumName(GetParam()),
               fastest, stepper.energy() / start);
   EXPECT_LT(fastest, 0.2);
   EXPECT_LT(stepper.energy(), 0.1 * start);

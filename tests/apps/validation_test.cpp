@@ -180,11 +180,11 @@ TEST(RockingBlock, StickThresholdsOfBothSchemes) {
     const RockingImpact impact = rockingBlockFirstImpact(parameters, c.scheme, 1e-4);
     const double housner = housnerRatio(parameters);
     if (c.sticks) {
-      EXPECT_NEAR(impact.ratio, housner, 1e-3) << schemeName(c.scheme) << " mu " << c.mu;
-      EXPECT_LT(impact.corner_slip, 1e-8) << schemeName(c.scheme) << " mu " << c.mu;
+      EXPECT_NEAR(impact.ratio, housner, 1e-3) << enumName(c.scheme) << " mu " << c.mu;
+      EXPECT_LT(impact.corner_slip, 1e-8) << enumName(c.scheme) << " mu " << c.mu;
     } else {
-      EXPECT_LT(impact.ratio, housner - 0.005) << schemeName(c.scheme) << " mu " << c.mu;
-      EXPECT_GT(impact.corner_slip, 1e-7) << schemeName(c.scheme) << " mu " << c.mu;
+      EXPECT_LT(impact.ratio, housner - 0.005) << enumName(c.scheme) << " mu " << c.mu;
+      EXPECT_GT(impact.corner_slip, 1e-7) << enumName(c.scheme) << " mu " << c.mu;
     }
   }
 }
@@ -338,7 +338,7 @@ TEST_P(Archetypes, UrdfArmOnTableRespectsItsLimits) {
     table_contacts = std::max(table_contacts, s.active);
   }
   std::printf("URDF arm (%s): worst limit violation %.3g rad, energy %.4g -> %.4g J\n",
-              schemeName(GetParam()), worst, start, stepper.energy());
+              enumName(GetParam()), worst, start, stepper.energy());
   int limits_hit = 0;
   for (int count : active) limits_hit += count > 0 ? 1 : 0;
   EXPECT_GE(limits_hit, 2);

@@ -7,8 +7,8 @@
 #include <new>
 
 #include "integrators/nlgs.hpp"
-#include "integrators/stage_solvers.hpp"
 #include "integrators/projected_newton.hpp"
+#include "integrators/stage_solvers.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
 #include "solver_fixtures.hpp"
@@ -133,8 +133,7 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
           solveFrictionStage(problem, settings, options, lambda_N, delta, lambda_T, v, ws);
         }
         if (round == 1) {
-          EXPECT_EQ(allocations, 0)
-              << (planar ? "2D " : "3D ") << stageSolverName(solver) << " stages";
+          EXPECT_EQ(allocations, 0) << (planar ? "2D " : "3D ") << enumName(solver) << " stages";
         }
       }
     }

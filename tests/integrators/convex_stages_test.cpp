@@ -405,7 +405,7 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
       std::vector<double> lambda_N(p.size(), 0.0);
       VectorX v = settled.step.v_free;
       const SolverStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
-      EXPECT_EQ(stats.status, SolverStatus::Converged) << stageSolverName(method);
+      EXPECT_EQ(stats.status, SolverStatus::Converged) << enumName(method);
       for (double lambda : lambda_N) EXPECT_GE(lambda, 0.0);
       velocities.push_back(v);
       iterations.push_back(stats.iterations);
@@ -459,11 +459,11 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
         VectorX v = v1;
         const SolverStats stats =
             solveFrictionStage(p, convex, options, lambda_N, delta, lambda_T, v, ws, rolling);
-        EXPECT_EQ(stats.status, SolverStatus::Converged) << tangentModeName(mode);
+        EXPECT_EQ(stats.status, SolverStatus::Converged) << enumName(mode);
         // the Newton steps converge by themselves, well before the hand-over to MPRGP
         // (measured: 15 steps for GLOBAL's redundant held rows, 4 for LOCAL and NONE)
         if (method == StageSolver::Newton) {
-          EXPECT_LT(stats.iterations, 50) << tangentModeName(mode);
+          EXPECT_LT(stats.iterations, 50) << enumName(mode);
         }
         for (int c = 0; c < p.size(); ++c) {
           EXPECT_LE(lambda_T[c].norm(), p.friction[c] * lambda_N[c] * (1.0 + 1e-12) + 1e-30);
@@ -487,15 +487,15 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
         std::printf(
             "stage 5b %s, %d contacts (%s): %s %d iterations to 1e-10; NLGS %s %.2e, "
             "velocities %.2e apart (relative to the change)\n",
-            tangentModeName(mode), p.size(), spheres ? "spheres" : "disks", stageSolverName(method),
+            enumName(mode), p.size(), spheres ? "spheres" : "disks", enumName(method),
             stats.iterations, spheres ? "cold, residual" : "one sweep from it, residual",
             check.residual, (v_nlgs - v).norm() / change);
         if (spheres) {
           EXPECT_LT((v_nlgs - v).norm(), 1e-4 * change);
           continue;
         }
-        EXPECT_LT(check.residual, 1e-8) << tangentModeName(mode);
-        EXPECT_LT((v_nlgs - v).norm(), 1e-5 * change) << tangentModeName(mode);
+        EXPECT_LT(check.residual, 1e-8) << enumName(mode);
+        EXPECT_LT((v_nlgs - v).norm(), 1e-5 * change) << enumName(mode);
       }
   }
 }
@@ -536,7 +536,7 @@ TEST(ConvexStages, ARowThatMovesNothingCarriesNothing) {
   std::vector<Vector2> lambda_T = {Vector2::Zero()};
   const std::vector<double> pushed = {1.0};  // a threshold from a normal impulse of 1
   const SolverStats friction = solveFrictionStage(p, solver, FrictionStageOptions{}, pushed, delta,
-                                                lambda_T, v, ws, nullptr);
+                                                  lambda_T, v, ws, nullptr);
   EXPECT_NE(friction.status, SolverStatus::Failed);
   EXPECT_TRUE(v.allFinite());
   EXPECT_TRUE(std::isfinite(delta[0]) && lambda_T[0].allFinite());

@@ -60,7 +60,7 @@ TEST_P(GranularPile, SettlesWithoutBlowUp) {
   EXPECT_LT(peak, 0.5 * settings.h * fastest + 10.0 * settings.h * settings.h * parameters.gravity);
   RecordProperty("cap_hits", cap_hits);
   std::printf("%s: peak penetration %.3g m, cap hits %d, steps with tangential work > 0: %d\n",
-              schemeName(GetParam()), peak, cap_hits, kane_steps);
+              enumName(GetParam()), peak, cap_hits, kane_steps);
 }
 
 // Threshold updates keep the staggered scheme's energy property: every round of stage 5b

@@ -112,8 +112,8 @@ TEST(KaneImpact, CatchingUpDoesNotGainEnergy) {
     std::vector<double> delta = {0.0};
     solveFrictionStage(p, tight(1500), options, lambda_N, delta, lambda_T, v, ws);
     // stage 2 sticks on the tangent M^-1-orthogonal to the normal: v+ = (1, 0)
-    EXPECT_NEAR(v[0], 1.0, 1e-9) << tangentModeName(mode);
-    EXPECT_NEAR(v[1], 0.0, 1e-9) << tangentModeName(mode);
+    EXPECT_NEAR(v[0], 1.0, 1e-9) << enumName(mode);
+    EXPECT_NEAR(v[1], 0.0, 1e-9) << enumName(mode);
     EXPECT_LE(0.5 * v.squaredNorm(), 0.5 * k.v_minus.squaredNorm());
   }
 }
@@ -206,7 +206,7 @@ TEST(NewtonsCradle, SimultaneousImpactLaws) {
   EXPECT_NEAR(elastic[2], 2.0 / 3.0, 1e-10);
   for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
     const std::vector<double> plastic = cradle(scheme, 0.0);
-    for (double vi : plastic) EXPECT_NEAR(vi, 1.0 / 3.0, 1e-10) << schemeName(scheme);
+    for (double vi : plastic) EXPECT_NEAR(vi, 1.0 / 3.0, 1e-10) << enumName(scheme);
   }
 }
 
@@ -216,9 +216,9 @@ TEST(NewtonsCradle, SimultaneousImpactLaws) {
 TEST(NewtonsCradle, SpacedBallsCollideSequentially) {
   for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
     const std::vector<double> spaced = cradle(scheme, 1.0, 0.05, 200);
-    EXPECT_NEAR(spaced[0], 0.0, 1e-10) << schemeName(scheme);
-    EXPECT_NEAR(spaced[1], 0.0, 1e-10) << schemeName(scheme);
-    EXPECT_NEAR(spaced[2], 1.0, 1e-10) << schemeName(scheme);
+    EXPECT_NEAR(spaced[0], 0.0, 1e-10) << enumName(scheme);
+    EXPECT_NEAR(spaced[1], 0.0, 1e-10) << enumName(scheme);
+    EXPECT_NEAR(spaced[2], 1.0, 1e-10) << enumName(scheme);
   }
 }
 
@@ -407,7 +407,7 @@ TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
     VectorX v = v1;
     const SolverStats stats =
         solveFrictionStage(p, solver, options, lambda_N, delta, lambda_T, v, ws);
-    EXPECT_EQ(stats.status, SolverStatus::Converged) << openContactsName(mode);
+    EXPECT_EQ(stats.status, SolverStatus::Converged) << enumName(mode);
     EXPECT_GT((v - v1).norm(), 1e-3 * v1.norm()) << "friction must act";
     worst.push_back(worstViolation(v));
     double pushed = 0.0;
@@ -419,8 +419,8 @@ TEST(OpenContacts, UnilateralRowsKeepTheNormalLawFreeOnesBreakIt) {
       }
       pushed += delta[c];
     }
-    std::printf("%s: %d sweeps, worst violation %.2e, open rows' impulse %.3e\n",
-                openContactsName(mode), stats.iterations, worst.back(), pushed);
+    std::printf("%s: %d sweeps, worst violation %.2e, open rows' impulse %.3e\n", enumName(mode),
+                stats.iterations, worst.back(), pushed);
   }
   EXPECT_LT(worst[0], 1e-5);  // measured 4e-7
   EXPECT_GT(worst[1], 1e-3);  // measured 6e-3
@@ -847,7 +847,7 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
     std::vector<Vector2> R(p.size(), Vector2::Zero());
     VectorX v = heap.step.v_free;
     const SolverStats stats = solveCoulombNlgs(p, solver, P, v, ws, &R);
-    EXPECT_EQ(stats.status, SolverStatus::Converged) << nlgsAccelerationName(acceleration);
+    EXPECT_EQ(stats.status, SolverStatus::Converged) << enumName(acceleration);
     EXPECT_LT(stats.residual, solver.tolerance);
     for (int c = 0; c < p.size(); ++c) {  // every impulse in its cone, as a sweep leaves it
       EXPECT_GE(P[c].x(), 0.0);
@@ -880,7 +880,7 @@ TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {
     std::vector<double> lambda_N(p.size(), 0.0);
     VectorX v = heap.step.v_free;
     const SolverStats stats = solveNormalStage(p, solver, lambda_N, v, ws);
-    EXPECT_EQ(stats.status, SolverStatus::Converged) << nlgsAccelerationName(acceleration);
+    EXPECT_EQ(stats.status, SolverStatus::Converged) << enumName(acceleration);
     for (double lambda : lambda_N) EXPECT_GE(lambda, 0.0);
     velocities.push_back(v);
     sweeps.push_back(stats.iterations);

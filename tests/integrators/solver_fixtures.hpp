@@ -105,7 +105,7 @@ inline std::string schemeTestName(const ::testing::TestParamInfo<Scheme>& info) 
 
 // Test-name suffix of a tangent-mode parameter, and every tangent mode of scheme B's stage 5b.
 inline std::string tangentModeTestName(const ::testing::TestParamInfo<TangentMode>& info) {
-  return tangentModeName(info.param);
+  return enumName(info.param);
 }
 inline auto allTangentModes() {
   return ::testing::Values(TangentMode::Global, TangentMode::Local, TangentMode::None);

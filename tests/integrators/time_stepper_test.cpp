@@ -230,8 +230,7 @@ TEST(BlockOnIncline, TwoCornerSliding) {
     for (int k = 0; k < steps; ++k) stepper.step();
     const double v1 = down.head<2>().dot(stepper.v().head<2>());
     const double pen1 = stepper.stats().penetration_max;
-    const std::string name =
-        std::string(schemeName(run.scheme)) + " " + tangentModeName(run.tangents);
+    const std::string name = std::string(enumName(run.scheme)) + " " + enumName(run.tangents);
     if (run.tangents == TangentMode::Global) {
       EXPECT_NEAR((v1 - v0) / (steps * h), g * (std::sin(a) - mu * std::cos(a)), 1e-6) << name;
       // the first free-fall step leaves a dip of order h^2 g, which VEL keeps; it must not grow
@@ -364,7 +363,7 @@ TEST_P(BothSchemes, RockingBlockHousnerRatio) {
     const double after = stepper.v()[2];
     if (std::abs(before) > 0.05 && std::abs(after) < 0.8 * std::abs(before)) {
       EXPECT_NEAR(after / before, expected, 0.01) << "impact " << impacts + 1;
-      std::printf("V5 %s impact %d: omega+/omega- = %.4f (Housner %.4f)\n", schemeName(GetParam()),
+      std::printf("V5 %s impact %d: omega+/omega- = %.4f (Housner %.4f)\n", enumName(GetParam()),
                   impacts + 1, after / before, expected);
       ++impacts;
     }
@@ -429,11 +428,11 @@ TEST_P(BothSchemes, JointLimitStopsAPendulum) {
       lowest = std::min(lowest, stepper.q()[0]);
       impulse = std::max(impulse, stepper.limitImpulses()[0]);
     }
-    EXPECT_GT(impulse, 0.0) << normalLawName(law);
+    EXPECT_GT(impulse, 0.0) << enumName(law);
     // free swing would reach acos(1 - 1 / (2 g)) = 0.32 rad
-    EXPECT_LT(lowest, -0.3 + 1e-9) << normalLawName(law);
+    EXPECT_LT(lowest, -0.3 + 1e-9) << enumName(law);
     const double overshoot = law == NormalLaw::Vel ? 0.5 * s.h * fastest + 1e-12 : 1e-12;
-    EXPECT_GT(lowest, -0.3 - overshoot) << normalLawName(law);
+    EXPECT_GT(lowest, -0.3 - overshoot) << enumName(law);
     EXPECT_LE(stepper.q()[0], 0.3 + overshoot);
   }
 }
@@ -452,12 +451,12 @@ TEST_P(BothSchemes, NormalLawsAndGaps) {
     if (law == NormalLaw::Pos) {
       // g(q_m) + h/2 U_N >= 0 is exact for a plane: pushed out in one step, at the price of
       // an upward velocity g / (h/2): POS injects energy into penetrated contacts
-      EXPECT_NEAR(stepper.q()[2] - r, 0.0, 1e-12) << normalLawName(law);
+      EXPECT_NEAR(stepper.q()[2] - r, 0.0, 1e-12) << enumName(law);
       EXPECT_NEAR(stepper.v()[2], 1e-3 / (0.5 * h), 1e-9);
     } else {
       // VEL and IQS never push out an existing penetration (no energy injected)
       for (int k = 0; k < 20; ++k) stepper.step();
-      EXPECT_NEAR(stepper.q()[2] - r, -1e-3, 1e-12) << normalLawName(law);
+      EXPECT_NEAR(stepper.q()[2] - r, -1e-3, 1e-12) << enumName(law);
     }
     // landing at 1 m/s, 0.3 mm above the floor at the midpoint of the first step
     VectorX v = VectorX::Zero(6);
@@ -470,7 +469,7 @@ TEST_P(BothSchemes, NormalLawsAndGaps) {
       EXPECT_NEAR(first, 3e-4 - 0.5 * h * (1.0 + 9.81 * h), 1e-12);
     } else {
       // IQS and POS close the 0.3 mm midpoint gap exactly at the end of the step
-      EXPECT_NEAR(first, 0.0, 1e-12) << normalLawName(law);
+      EXPECT_NEAR(first, 0.0, 1e-12) << enumName(law);
     }
     // next step: the explicit midpoint q_m = q_k + h/2 v_k dips (h/2) 0.6 m/s = 0.3 mm into
     // the floor; POS pushes that out at 0.6 m/s, a bounce from an inelastic contact (the
@@ -479,7 +478,7 @@ TEST_P(BothSchemes, NormalLawsAndGaps) {
     if (law == NormalLaw::Pos) {
       EXPECT_NEAR(stepper.v()[2], 0.6, 1e-9);
     } else {
-      EXPECT_NEAR(stepper.v()[2], 0.0, 1e-9) << normalLawName(law);
+      EXPECT_NEAR(stepper.v()[2], 0.0, 1e-9) << enumName(law);
     }
   }
 }
@@ -557,7 +556,7 @@ TEST_P(BothSchemes, RelativeMarginCatchesARestingPairSetMovingWithinTheStep) {
     stepper.reset(0.0, q, VectorX::Zero(12));
     const StepStats& st = stepper.step();
     const double a = stepper.q()[0], b = stepper.q()[model.bodies[1].q_index];
-    SCOPED_TRACE(marginRuleName(rule));
+    SCOPED_TRACE(enumName(rule));
     EXPECT_EQ(st.redetections, rule == MarginRule::Relative ? 1 : 0);
     EXPECT_FALSE(st.margin_outrun);
     if (rule == MarginRule::Relative) {
@@ -812,7 +811,7 @@ TEST(Determinism, ShuffledSweepsRepeat) {
       for (int k = 0; k < 200; ++k) stepper.step();
       end.push_back(stepper.q());
     }
-    EXPECT_EQ(end[0], end[1]) << schemeName(scheme);
+    EXPECT_EQ(end[0], end[1]) << enumName(scheme);
   }
 }
 
