@@ -1,19 +1,21 @@
 #!/usr/bin/python3
 """Two builds of the `sweep` command side by side: each case run with the build before and the
-build after, alternating, --repeat times; the least wall time and the least solve time of each
-(stats.csv's t_solve summed), their ratio after / before, and whether both ended in the same
-final_state.csv, bit for bit. For changes that must not cost time (a refactor):
+build after, alternating, --repeat times; the least wall time, the least solve time (stats.csv's
+t_solve summed) and the least solve time per local update (summary.json's ns_per_update: the
+fair measure where the two builds take other trajectories) of each, their ratios after /
+before, and whether both ended in the same final_state.csv, bit for bit. For changes that must
+not cost time (a refactor):
 
   /usr/bin/python3 bench/compare_builds.py BEFORE/sweep AFTER/sweep [--repeat 3] [--cases a,b]
       [--threads 1]
 """
 import argparse
-import csv
 import filecmp
 import json
 import os
-import subprocess
 import tempfile
+
+from threads import run  # one run: (wall, [detect, assemble, solve, update] seconds)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FUNNEL = os.path.join(ROOT, "examples", "funnel", "funnel.yaml")
@@ -35,17 +37,6 @@ CASES = {
 }
 
 
-def run(sweep, argv, out, threads):
-    subprocess.run([sweep, "run", argv[0], "--out", out, "--quiet", "--threads", str(threads),
-                    "--set", "output.vtk_interval=0", *argv[1:]], check=True,
-                   stdout=subprocess.DEVNULL)
-    with open(os.path.join(out, "summary.json")) as f:
-        wall = json.load(f)["wall_seconds"]
-    with open(os.path.join(out, "stats.csv")) as f:
-        solve = sum(float(r["t_solve"]) for r in csv.DictReader(f))
-    return wall, solve
-
-
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("before")
@@ -56,20 +47,24 @@ def main():
     args = parser.parse_args()
     builds = {"before": os.path.abspath(args.before), "after": os.path.abspath(args.after)}
     print("| case | wall before (s) | wall after (s) | ratio | solve before (s) | solve after (s) "
-          "| ratio | same bits |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| ratio | ns / update before | after | ratio | same bits |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as work:
         for name in args.cases.split(","):
-            best = {k: [float("inf"), float("inf")] for k in builds}
+            best = {k: [float("inf")] * 3 for k in builds}
             for i in range(args.repeat):
                 for key, sweep in builds.items():
-                    wall, solve = run(sweep, CASES[name], os.path.join(work, key), args.threads)
-                    best[key] = [min(best[key][0], wall), min(best[key][1], solve)]
+                    out = os.path.join(work, key)
+                    wall, split = run(sweep, CASES[name], out, args.threads)
+                    with open(os.path.join(out, "summary.json")) as f:
+                        per_update = json.load(f)["solver"]["ns_per_update"]
+                    best[key] = [min(x, y) for x, y in zip(best[key], (wall, split[2], per_update))]
             same = filecmp.cmp(os.path.join(work, "before", "final_state.csv"),
                                os.path.join(work, "after", "final_state.csv"), shallow=False)
             b, a = best["before"], best["after"]
             print(f"| {name} | {b[0]:.3f} | {a[0]:.3f} | {a[0] / b[0]:.3f} | {b[1]:.3f} | "
-                  f"{a[1]:.3f} | {a[1] / b[1]:.3f} | {'yes' if same else 'no'} |", flush=True)
+                  f"{a[1]:.3f} | {a[1] / b[1]:.3f} | {b[2]:.1f} | {a[2]:.1f} | {a[2] / b[2]:.3f} | "
+                  f"{'yes' if same else 'no'} |", flush=True)
 
 
 if __name__ == "__main__":

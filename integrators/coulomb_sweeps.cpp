@@ -17,13 +17,13 @@ namespace {
 void coulombResidualTerms(const RowReader& rows, const std::vector<Vector3>& P,
                           const std::vector<Vector2>* R, const VectorX& v, const int* order,
                           int count, double& f2, double& scale2) {
-  for (int k = 0; k < count; ++k) {
-    const int c = order[k];
-    if (rows.packed3d()) prefetchSphereRow(rows.packedRows3d(), order, k, count, v);
-    rows.visit(c, [&](const auto& row) {
-      coulombResidualTerms(row, P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
-    });
-  }
+  const bool prefetch = rows.packed3d();
+  rows.forEach(
+      order, 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
+        const int c = order[k];
+        if (prefetch) prefetchSphereRow(rows.packedRows3d(), order, k, count, v);
+        coulombResidualTerms(row, P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
+      });
 }
 
 // chunked: over the coloured sweeps' chunks on `threads` threads, the sums per chunk added in
@@ -65,15 +65,14 @@ struct CoulombSweep {
 
   [[gnu::always_inline]] void operator()(int first, int last, VectorX& v, double& change2,
                                          double& size2, int& failures) const {
-    for (int k = first; k < last; ++k) {
-      const int c = order[k];
-      if (rows.packed3d()) prefetchSphereRow(rows.packedRows3d(), order, k, last, v);
-      Vector2* Rc = R != nullptr ? &(*R)[c] : nullptr;
-      rows.visit(c, [&](const auto& row) {
-        coulombUpdate(row, settings.relaxation, settings.local_solver_3d, P[c], Rc, v, change2,
-                      size2, failures);
-      });
-    }
+    const bool prefetch = rows.packed3d();
+    rows.forEach(
+        order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {
+          const int c = order[k];
+          if (prefetch) prefetchSphereRow(rows.packedRows3d(), order, k, last, v);
+          coulombUpdate(row, settings.relaxation, settings.local_solver_3d, P[c],
+                        R != nullptr ? &(*R)[c] : nullptr, v, change2, size2, failures);
+        });
   }
 };
 

@@ -101,10 +101,10 @@ SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows
   SolverStats stats;
   auto residual = [&] {
     double f2 = 0.0, scale2 = 0.0;
-    for (int k = 0; k < count; ++k) {
-      const int c = ws.order[k];
-      rows.visit(c, [&](const auto& row) { stage.residualTerms(row, c, v, f2, scale2); });
-    }
+    rows.forEach(
+        ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
+          stage.residualTerms(row, ws.order[k], v, f2, scale2);
+        });
     return relative(f2, scale2);
   };
   std::optional<NncgMomentum> momentum;
@@ -116,10 +116,10 @@ SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, count);
     double change2 = 0.0, size2 = 0.0;
-    for (int k = 0; k < count; ++k) {
-      const int c = ws.order[k];
-      rows.visit(c, [&](const auto& row) { stage.update(row, c, v, change2, size2); });
-    }
+    rows.forEach(
+        ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
+          stage.update(row, ws.order[k], v, change2, size2);
+        });
     stats.iterations = it + 1;
     // the periodic check as in the other stages: with GLOBAL tangents in a hyperstatic heap
     // the bilateral corrections drift along redundant rows while the friction law is met

@@ -17,10 +17,10 @@ namespace {
 double normalResidual(const RowReader& rows, const std::vector<double>& lambda_N, const VectorX& v,
                       const SolverWorkspace& ws, int count) {
   double f2 = 0.0, scale2 = 0.0;
-  for (int k = 0; k < count; ++k) {
-    const int c = ws.order[k];
-    rows.visit(c, [&](const auto& row) { normalResidualTerms(row, lambda_N[c], v, f2, scale2); });
-  }
+  rows.forEach(
+      ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
+        normalResidualTerms(row, lambda_N[ws.order[k]], v, f2, scale2);
+      });
   return relative(f2, scale2);
 }
 
@@ -35,12 +35,10 @@ SolverStats normalIsland(const ContactProblem& p, const SolverSettings& settings
   for (int it = 0; it < settings.max_iterations; ++it) {
     nextOrder(settings, ws, it, n);
     double change2 = 0.0, size2 = 0.0;
-    for (int k = 0; k < n; ++k) {
-      const int c = ws.order[k];
-      rows.visit(c, [&](const auto& row) {
-        normalUpdate(row, settings.relaxation, lambda_N[c], v, change2, size2);
-      });
-    }
+    rows.forEach(
+        ws.order.data(), 0, n, [&](int k, const auto& row) __attribute__((always_inline)) {
+          normalUpdate(row, settings.relaxation, lambda_N[ws.order[k]], v, change2, size2);
+        });
     stats.iterations = it + 1;
     if (residualDue(settings, it, change2, size2)) {
       stats.residual = normalResidual(rows, lambda_N, v, ws, n);

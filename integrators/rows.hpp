@@ -203,7 +203,10 @@ constexpr int kSphereRecordAhead = 16, kSphereVelocityAhead = 8;
 //   rollingBound()               mu_r R* (0: no rolling row), rollingW(), rollingKnown()
 //   rollingChange(dP)            H_r^T M^-1 H_c dP (kFusedRolling rows)
 //   apply(dP, dR, v)             v += M^-1 (H dP + H_r dR)
-// kSpatial: the row may be a 3D one (its W() is 3 x 3).
+//   applyNormal(dP_N, v)         v += M^-1 W_N dP_N
+// kSpatial: the row may be a 3D one (its W() is 3 x 3). kLocal: the size of the local vectors
+// the laws compute in for it (Local = Eigen::Matrix<double, kLocal, 1>): 2 for packed 2D rows,
+// whose arithmetic then stays in two lanes, 3 for the others (a 2D entry row's third is 0).
 // kFusedRolling: the row reads and writes its rolling rows in the same pass as the contact's
 // (packed 3D rows); entry rows apply the contact's impulse first and read the rolling
 // velocity after it. Both are the same block Gauss-Seidel, equal up to round-off.
@@ -211,6 +214,7 @@ constexpr int kSphereRecordAhead = 16, kSphereVelocityAhead = 8;
 // Entry rows: the problem's generic arrays (H, M^-1 H, diagonal and body-form entries).
 struct EntryRow {
   static constexpr bool kSpatial = true;
+  static constexpr int kLocal = 3;
   static constexpr bool kFusedRolling = false;
   const ContactProblem& p;
   int c;
@@ -246,11 +250,13 @@ struct EntryRow {
     if (!dP.isZero(0.0)) p.applyImpulse(c, dP, v);
     if (!dR.isZero(0.0)) p.applyRolling(c, dR, v);
   }
+  void applyNormal(double dP_N, VectorX& v) const { p.applyImpulse(c, Vector3(dP_N, 0, 0), v); }
 };
 
 // Packed 2D rows (ContactProblem::pack2d): no rolling rows, no equality rows.
 struct Row2d {
   static constexpr bool kSpatial = false;
+  static constexpr int kLocal = 2;
   static constexpr bool kFusedRolling = true;
   const ContactProblem::PackedRow2d& r;
   const ContactProblem::PackedEntry2d* h;
@@ -272,7 +278,11 @@ struct Row2d {
     for (int k = r.begin; k < r.end; ++k) u += Vector2(h[k].normal, h[k].tangent) * v[h[k].dof];
     return u;
   }
-  [[gnu::always_inline]] void velocity(const VectorX& v, Vector3& u, Vector2& u_rolling) const {
+  [[gnu::always_inline]] void velocity(const VectorX& v, Vector2& u, Vector2& u_rolling) const {
+    u = sum(r.known, v);
+    u_rolling.setZero();
+  }
+  void velocity(const VectorX& v, Vector3& u, Vector2& u_rolling) const {
     const Vector2 u2 = sum(r.known, v);
     u = Vector3(u2.x(), u2.y(), 0.0);
     u_rolling.setZero();
@@ -282,9 +292,8 @@ struct Row2d {
     u = Vector3(u2.x(), u2.y(), 0.0);
     u_rolling.setZero();
   }
-  [[gnu::always_inline]] Vector3 freeVelocity(const Vector3& u, const Vector3& P) const {
-    const Vector2 q = u.head<2>() - r.W * P.head<2>();
-    return Vector3(q.x(), q.y(), 0.0);
+  [[gnu::always_inline]] Vector2 freeVelocity(const Vector2& u, const Vector2& P) const {
+    return u - r.W * P;
   }
   const Matrix2& W() const { return r.W; }
   const Matrix2& W_inverse() const { return r.W_inverse; }
@@ -296,18 +305,24 @@ struct Row2d {
   static constexpr bool isBilateral() { return false; }
   static constexpr double rollingBound() { return 0.0; }
   Matrix2 rollingW() const { return Matrix2::Identity(); }
-  Vector2 rollingChange(const Vector3&) const { return Vector2::Zero(); }
-  Vector3 contactChange(const Vector2&) const { return Vector3::Zero(); }
+  Vector2 rollingChange(const Vector2&) const { return Vector2::Zero(); }
+  Vector2 contactChange(const Vector2&) const { return Vector2::Zero(); }
   static constexpr double rollingIsotropicInverse() { return 0.0; }
-  [[gnu::always_inline]] void apply(const Vector3& dP, const Vector2&, VectorX& v) const {
+  // dP: (normal, tangent), or a 3-vector whose third entry is ignored
+  template <class Impulse>
+  [[gnu::always_inline]] void apply(const Impulse& dP, const Vector2&, VectorX& v) const {
     for (int k = r.minv_begin; k < r.minv_end; ++k)
       v[minv[k].dof] += minv[k].normal * dP.x() + minv[k].tangent * dP.y();
+  }
+  [[gnu::always_inline]] void applyNormal(double dP_N, VectorX& v) const {
+    for (int k = r.minv_begin; k < r.minv_end; ++k) v[minv[k].dof] += minv[k].normal * dP_N;
   }
 };
 
 // Packed 3D rows (ContactProblem::pack3d) with their entries or in body form.
 struct GeneralRow3d {
   static constexpr bool kSpatial = true;
+  static constexpr int kLocal = 3;
   static constexpr bool kFusedRolling = true;
   const ContactProblem::PackedRow3d& r;
   const PackedRows3d& s;
@@ -341,11 +356,15 @@ struct GeneralRow3d {
   void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const {
     applyPacked3d(r, s, dP, dR, v);
   }
+  void applyNormal(double dP_N, VectorX& v) const {
+    applyPacked3d(r, s, Vector3(dP_N, 0, 0), Vector2::Zero(), v);
+  }
 };
 
 // Compact sphere rows (ContactProblem::PackedSphere3d): W and W_r diagonal.
 struct SphereRow3d {
   static constexpr bool kSpatial = true;
+  static constexpr int kLocal = 3;
   static constexpr bool kFusedRolling = true;
   const ContactProblem::PackedSphere3d& r;
   static constexpr int dimension() { return 3; }
@@ -388,6 +407,9 @@ struct SphereRow3d {
     return Vector3(0.0, kappa * dR.y(), -kappa * dR.x());
   }
   void apply(const Vector3& dP, const Vector2& dR, VectorX& v) const { r.apply(dP, dR, v); }
+  void applyNormal(double dP_N, VectorX& v) const {
+    r.apply(Vector3(dP_N, 0, 0), Vector2::Zero(), v);
+  }
 };
 
 // The one place that decodes how a row is stored. A solver names the packed forms it reads
@@ -413,6 +435,28 @@ class RowReader {
   bool packed() const { return form_ != Form::Entries; }
   bool packed3d() const { return form_ == Form::Packed3d; }
   const PackedRows3d& packedRows3d() const { return packed3d_; }
+
+  // visit(k, row) for k in [first, last), row the adapter of row order[k]: the form decided
+  // once for the loop, the sweeps' way (a packed 3D problem still tells sphere rows apart)
+  template <class Visit>
+  [[gnu::always_inline]] void forEach(const int* order, int first, int last, Visit&& f) const {
+    if (form_ == Form::Packed2d) {
+      const ContactProblem::PackedRow2d* rows = p_.rows2d.data();
+      const ContactProblem::PackedEntry2d* h = p_.h2d.data();
+      const ContactProblem::PackedEntry2d* minv = p_.minv2d.data();
+      for (int k = first; k < last; ++k) f(k, Row2d{rows[order[k]], h, minv});
+    } else if (form_ == Form::Packed3d) {
+      for (int k = first; k < last; ++k) {
+        const int slot = packed3d_.slot[order[k]];
+        if (slot < 0)
+          f(k, SphereRow3d{packed3d_.spheres[-1 - slot]});
+        else
+          f(k, GeneralRow3d{packed3d_.rows[slot], packed3d_});
+      }
+    } else {
+      for (int k = first; k < last; ++k) f(k, EntryRow{p_, order[k]});
+    }
+  }
 
   template <class Visit>
   [[gnu::always_inline]] decltype(auto) visit(int c, Visit&& f) const {
