@@ -109,7 +109,8 @@ struct ContactProblem {
   // reads H once and writes v once for the contact and its rolling rows together (the rolling
   // velocity after the contact's own update is U_r + rolling_coupling dP). Filled by pack3d().
   struct PackedRow3d {
-    // first: all an open row that stays open reads (one cache line), see coulombUpdate3d
+    // first: all an open row that stays open reads (one cache line), see coulombUpdate
+    // (contact_laws.hpp)
     Vector3 known;
     double bias = 0.0;
     // a diagonal row (see h_inverse_mass) has no M^-1 H entries: minv_begin == minv_end, and

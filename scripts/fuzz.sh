@@ -15,9 +15,9 @@ targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(scene settings snapshot state urdf)
 
 "./scripts/install-deps.sh" --clang
-# -O1 -g1 as in the sanitizer suites (scripts/sanitize.sh)
+# -O2 -g1 as in the sanitizer suites (scripts/sanitize.sh)
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DSWEEP_FUZZ=ON -DSWEEP_BUILD_TESTS=OFF \
   -DSWEEP_BUILD_BENCHMARKS=OFF -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_WERROR=ON >/dev/null
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]/%/_fuzzer}"
 

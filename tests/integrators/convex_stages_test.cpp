@@ -288,7 +288,7 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
   }
 }
 
-// Programs large enough to be ordered by dissection (projected_newton.cpp), of graphs that
+// Programs large enough to be ordered by dissection (sparse_cholesky.cpp), of graphs that
 // METIS's separator meets at its edges: no entry off the diagonal (contacts with the ground
 // alone), many small components, a long thin strip, a grid with loose contacts beside it.
 // Each is solved by Newton steps alone, to the tolerance, with the same bits on 1 and 2
