@@ -348,6 +348,27 @@ class CholmodFactor {
     scheduled_threads_ = 1;
     if (threads == 1 || n_ < kParallelRows) return true;
     const int n = n_;
+    measureSubtrees();
+    const double all = subtree_work_total_;
+    const double best_time = chooseSubtrees(threads);
+    // a split worth its threads: a tenth off the time at least
+    if (best_time > kWorthwhile * all) return true;
+    buildChains(threads);
+    // each thread's own workspace, sized here, outside the factorizations
+    while (static_cast<int>(thread_common_.size()) < threads) {
+      thread_common_.emplace_back();
+      startCommon(thread_common_.back());
+    }
+    for (int t = 0; t < threads; ++t)
+      if (!cholmod_allocate_work(n, n, n, &thread_common_[t])) return false;
+    if (!cholmod_allocate_work(n, n, n, &common_)) return false;
+    scheduled_threads_ = threads;
+    return true;
+  }
+
+  // subtree_work_ and the children lists (child_begin_, child_) of the elimination tree
+  void measureSubtrees() {
+    const int n = n_;
     // Each row's work in the up-looking factorization: for each entry L(k, i) of its row, the
     // entries column i holds so far. The rows' patterns come from the elimination tree (the
     // row subtrees, as rowfac finds them): O(entries of L), a fraction of one factorization.
@@ -385,6 +406,15 @@ class CholmodFactor {
       next.assign(child_begin_.begin(), child_begin_.end() - 1);
       for (int j = 0; j < n; ++j) child_[next[parent_[j] >= 0 ? parent_[j] : n]++] = j;
     }
+    subtree_work_total_ = 0.0;
+    for (int e = child_begin_[n]; e < child_begin_[n + 1]; ++e)
+      subtree_work_total_ += subtree_work_[child_[e]];
+  }
+
+  // The subtrees each thread factorizes (best_roots_, best_owner_); returns the estimated time
+  // of that split
+  double chooseSubtrees(int threads) {
+    const int n = n_;
     // Geist & Ng: split the heaviest subtree (its root joins the top) while it exceeds a
     // thread's share; from there on, pack the subtrees onto the threads (the longest first, each
     // to the least loaded thread) and keep the split whose estimated time, the top's work plus
@@ -432,8 +462,13 @@ class CholmodFactor {
         total += subtree_work_[child_[e]];
       }
     }
-    // a split worth its threads: a tenth off the time at least
-    if (best_time > kWorthwhile * all) return true;
+    return best_time;
+  }
+
+  // Each row's owner, the factorization's and the solve's chains, and each column's entries
+  // in the top's rows, for the split chosen
+  void buildChains(int threads) {
+    const int n = n_;
     // owners downwards: a chosen root's subtree is its thread's, every other row the top's
     owner_.assign(n, -2);
     for (std::size_t r = 0; r < best_roots_.size(); ++r) owner_[best_roots_[r]] = best_owner_[r];
@@ -473,16 +508,6 @@ class CholmodFactor {
           ++top_count_[i];
         }
     }
-    // each thread's own workspace, sized here, outside the factorizations
-    while (static_cast<int>(thread_common_.size()) < threads) {
-      thread_common_.emplace_back();
-      startCommon(thread_common_.back());
-    }
-    for (int t = 0; t < threads; ++t)
-      if (!cholmod_allocate_work(n, n, n, &thread_common_[t])) return false;
-    if (!cholmod_allocate_work(n, n, n, &common_)) return false;
-    scheduled_threads_ = threads;
-    return true;
   }
 
   cholmod_common common_{};
@@ -504,6 +529,7 @@ class CholmodFactor {
   std::vector<int> solve_chain_begin_, solve_chain_row_, top_count_;
   std::vector<int> best_roots_, best_owner_, packed_roots_, packed_owner_;
   std::vector<double> subtree_work_, load_;
+  double subtree_work_total_ = 0.0;           // the roots' subtree work: all the work
   std::deque<cholmod_common> thread_common_;  // a deque: started commons must not move
 };
 
