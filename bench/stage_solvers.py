@@ -58,8 +58,8 @@ def run(sweep, scene, options, out_dir):
         summary = json.load(f)
     with open(os.path.join(out_dir, "stats.csv")) as f:
         rows = list(csv.DictReader(f))
-    stage1 = [int(r["iters_stage1"]) for r in rows]
-    stage2 = [int(r["iters_stage2"]) for r in rows]
+    stage1 = [int(r["iterations_stage1"]) for r in rows]
+    stage2 = [int(r["iterations_stage2"]) for r in rows]
     return {
         "cpu_seconds": summary["cpu_seconds"],
         "solve_seconds": sum(float(r["t_solve"]) for r in rows),

@@ -18,108 +18,111 @@ double seconds(Clock::time_point since) {
 }
 }  // namespace
 
-void TimeStepper::solve() {
-  stats_.solves = 1;
-  stats_.deferred = stats_.unassembled = 0;
-  if (!settings_.screening) {
-    settings_.scheme == Scheme::MoreauJean ? solveMoreauJean() : solveCatchingUp();
-    keepImpulses();
+namespace stepping {
+
+void solve(const StepModel& m, StepData& d) {
+  d.stats.solves = 1;
+  d.stats.deferred = d.stats.unassembled = 0;
+  if (!m.settings.screening) {
+    m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
+    keepImpulses(m, d);
     return;
   }
-  v_contact_free_ = v_free_;
+  d.v_contact_free = d.v_free;
   int iterations1 = 0, iterations2 = 0;
   long updates = 0;
   double t_solve = 0.0;
   for (;;) {
-    settings_.scheme == Scheme::MoreauJean ? solveMoreauJean() : solveCatchingUp();
-    keepImpulses();
-    iterations1 += stats_.iterations_stage1;
-    iterations2 += stats_.iterations_stage2;
-    updates += stats_.updates;
-    t_solve += stats_.t_solve;
-    const int admitted = admitViolators();
+    m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
+    keepImpulses(m, d);
+    iterations1 += d.stats.iterations_stage1;
+    iterations2 += d.stats.iterations_stage2;
+    updates += d.stats.updates;
+    t_solve += d.stats.t_solve;
+    const int admitted = admitViolators(m, d);
     if (admitted == 0) break;
-    if (++stats_.solves > settings_.screening_rounds) {  // the last round: every candidate
-      std::fill(deferred_.begin(), deferred_.end(), 0);
-      std::fill(unassembled_.begin(), unassembled_.end(), 0);
-      jacobian_stale_ = true;
+    if (++d.stats.solves > m.settings.screening_rounds) {  // the last round: every candidate
+      std::fill(d.deferred.begin(), d.deferred.end(), 0);
+      std::fill(d.unassembled.begin(), d.unassembled.end(), 0);
+      d.jacobian_stale = true;
     }
-    v_free_ = v_contact_free_;
-    if (jacobian_stale_) assembleJacobian();
-    assembleProblem();
+    d.v_free = d.v_contact_free;
+    if (d.jacobian_stale) assembleJacobian(m, d);
+    assembleProblem(m, d);
   }
-  contact_dv_ = v_free_ - v_contact_free_;
-  stats_.iterations_stage1 = iterations1;
-  stats_.iterations_stage2 = iterations2;
-  stats_.updates = updates;
-  stats_.t_solve = t_solve;
-  stats_.deferred = static_cast<int>(std::count(deferred_.begin(), deferred_.end(), 1));
-  stats_.unassembled = static_cast<int>(std::count(unassembled_.begin(), unassembled_.end(), 1));
+  d.contact_dv = d.v_free - d.v_contact_free;
+  d.stats.iterations_stage1 = iterations1;
+  d.stats.iterations_stage2 = iterations2;
+  d.stats.updates = updates;
+  d.stats.t_solve = t_solve;
+  d.stats.deferred = static_cast<int>(std::count(d.deferred.begin(), d.deferred.end(), 1));
+  d.stats.unassembled = static_cast<int>(std::count(d.unassembled.begin(), d.unassembled.end(), 1));
 }
 
-int TimeStepper::admitViolators() {
-  const ContactJacobian& J = cdata_.jacobian;
+int admitViolators(const StepModel& m, StepData& d) {
+  const ContactJacobian& J = d.contact_data.jacobian;
   // round-off only: a contact let through would differ from the unscreened solve
-  const double tau = 0.5 * settings_.h, slack = touchingGap(cmodel_);
-  const double t_m = t_ + 0.5 * settings_.h;
-  const int threads = settings_.threadCount();
-  rootBodyTwists(model_, data_, v_free_, end_twist_, threads);
+  const double tau = 0.5 * m.settings.h, slack = touchingGap(m.cmodel);
+  const double t_m = d.t + 0.5 * m.settings.h;
+  const int threads = m.threads;
+  rootBodyTwists(m.model, d.model_data, d.v_free, d.end_twist, threads);
   int admitted = 0;
   bool stale = false;
-  const int m = static_cast<int>(deferred_.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (m >= kParallelItems) \
+  const int contacts = static_cast<int>(d.deferred.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (contacts >= kParallelItems) \
     reduction(+ : admitted) reduction(|| : stale)
-  for (int id = 0; id < m; ++id) {
-    if (!deferred_[id]) continue;
-    if (unassembled_[id]) {
+  for (int id = 0; id < contacts; ++id) {
+    if (!d.deferred[id]) continue;
+    if (d.unassembled[id]) {
       std::array<double, 1> u_end;
-      normalVelocitiesFromTwists<1>(model_, data_, cdata_.contacts[id], {&end_twist_}, t_m, u_end);
-      if (tau * (u_end[0] + screening_bias_[id]) < -slack) {
-        deferred_[id] = unassembled_[id] = 0;
+      normalVelocitiesFromTwists<1>(m.model, d.model_data, d.contact_data.contacts[id],
+                                    {&d.end_twist}, t_m, u_end);
+      if (tau * (u_end[0] + d.screening_bias[id]) < -slack) {
+        d.deferred[id] = d.unassembled[id] = 0;
         stale = true;  // its rows are built before the next solve
         ++admitted;
       }
       continue;
     }
-    if (tau * (J.relativeVelocity(id, v_free_).x() + screening_bias_[id]) < -slack) {
-      deferred_[id] = 0;
+    if (tau * (J.relativeVelocity(id, d.v_free).x() + d.screening_bias[id]) < -slack) {
+      d.deferred[id] = 0;
       ++admitted;
     }
   }
-  if (stale) jacobian_stale_ = true;
+  if (stale) d.jacobian_stale = true;
   return admitted;
 }
 
-void TimeStepper::keepImpulses() {
+void keepImpulses(const StepModel& m, StepData& d) {
   // a joint limit or constraint out of this solve carries nothing (they are never deferred)
-  std::fill(limit_impulse_.begin(), limit_impulse_.end(), 0.0);
-  std::fill(constraint_impulse_.begin(), constraint_impulse_.end(), Vector3::Zero());
+  std::fill(d.limit_impulse.begin(), d.limit_impulse.end(), 0.0);
+  std::fill(d.constraint_impulse.begin(), d.constraint_impulse.end(), Vector3::Zero());
   // rows name distinct contacts, limits and constraints: each writes its own entries
-  const int n = problem_.size();
-#pragma omp parallel for schedule(static) \
-    num_threads(settings_.threadCount()) if (n >= kParallelItems)
+  const int n = d.problem.size();
+#pragma omp parallel for schedule(static) num_threads(m.threads) if (n >= kParallelItems)
   for (int c = 0; c < n; ++c) {
-    const int id = problem_.contact[c];
-    if (id < 0) {
-      const int m = -1 - id, limits = static_cast<int>(model_.limits.size());
-      if (m < limits)
-        limit_impulse_[m] = P_[c].x();
-      else
-        constraint_impulse_[m - limits] = P_[c];
+    const int id = d.problem.contact[c];
+    const RowOwner owner = rowOwner(m.model, id);
+    if (owner.kind == RowOwner::Limit) {
+      d.limit_impulse[owner.index] = d.P[c].x();
       continue;
     }
-    impulse_[id] = P_[c];
-    if (problem_.rolling) rolling_[id] = R_[c];
-    solved_[id] = 1;
+    if (owner.kind == RowOwner::Constraint) {
+      d.constraint_impulse[owner.index] = d.P[c];
+      continue;
+    }
+    d.impulse[id] = d.P[c];
+    if (d.problem.rolling) d.rolling[id] = d.R[c];
+    d.solved[id] = 1;
   }
 }
 
-double TimeStepper::metricKinetic(const VectorX& v) {
+double metricKinetic(const StepModel& m, StepData& d, const VectorX& v) {
   // v_c^T M_c v_c per tree, summed in fixed chunks of trees (the same bits on any thread
   // count), without a temporary: a free body's block as a fixed-size 6 x 6
   auto quadratic = [&](int c) {
-    const Component& comp = model_.components[c];
-    const MatrixX& M = data_.mass_blocks[c];
+    const Component& comp = m.model.components[c];
+    const MatrixX& M = d.model_data.mass_blocks[c];
     if (comp.nv == 6) {
       const auto v_c = v.segment<6>(comp.v_index);
       return v_c.dot(Eigen::Map<const Matrix6>(M.data()) * v_c);
@@ -129,115 +132,119 @@ double TimeStepper::metricKinetic(const VectorX& v) {
     for (int j = 0; j < comp.nv; ++j) sum += v_c[j] * M.col(j).dot(v_c);
     return sum;
   };
-  const int trees = static_cast<int>(model_.components.size() - model_.systems.size());
-  double twice = sumInChunks(trees, settings_.threadCount(),
+  const int trees = static_cast<int>(m.model.components.size() - m.model.systems.size());
+  double twice = sumInChunks(trees, m.threads,
                              [&](long c, double& sum) { sum += quadratic(static_cast<int>(c)); });
-  for (int c = trees; c < static_cast<int>(model_.components.size()); ++c) twice += quadratic(c);
+  for (int c = trees; c < static_cast<int>(m.model.components.size()); ++c) twice += quadratic(c);
   return 0.5 * twice;
 }
 
-void TimeStepper::solveMoreauJean() {
+void solveMoreauJean(const StepModel& m, StepData& d) {
   const auto start = Clock::now();
-  VectorX& v = v_free_;  // becomes v_{k+1}
-  stats_.kinetic_free = metricKinetic(v);
-  const SolverStats s = solveCoulombNlgs(problem_, settings_.coulomb, P_, v, nlgs_ws_,
-                                         problem_.rolling ? &R_ : nullptr);
-  stats_.iterations_stage1 = s.iterations;
-  stats_.iterations_stage2 = 0;
-  stats_.updates = s.updates;
-  stats_.residual = s.residual;
-  stats_.status = s.status;
+  VectorX& v = d.v_free;  // becomes d.v{k+1}
+  d.stats.kinetic_free = metricKinetic(m, d, v);
+  const SolverStats s = solveCoulombNlgs(d.problem, m.settings.coulomb, d.P, v, d.solver_ws,
+                                         d.problem.rolling ? &d.R : nullptr);
+  d.stats.iterations_stage1 = s.iterations;
+  d.stats.iterations_stage2 = 0;
+  d.stats.updates = s.updates;
+  d.stats.residual = s.residual;
+  d.stats.status = s.status;
   // a solve that used every sweep is a cap hit even when its residual passes at the end
   // (velocities converged, impulses still moving among redundant rows): users count these
-  stats_.cap_hit =
-      s.iterations >= settings_.coulomb.max_iterations || s.status == SolverStatus::MaxIterations;
-  stats_.local_failures = s.local_failures;
-  stats_.kinetic_stage1 = stats_.kinetic_solved = metricKinetic(v);
-  stats_.t_solve = seconds(start);
+  d.stats.cap_hit =
+      s.iterations >= m.settings.coulomb.max_iterations || s.status == SolverStatus::MaxIterations;
+  d.stats.local_failures = s.local_failures;
+  d.stats.kinetic_stage1 = d.stats.kinetic_solved = metricKinetic(m, d, v);
+  d.stats.t_solve = seconds(start);
 }
 
-const TimeStepper::StagedImpulse* TimeStepper::previousStaged(int c) const {
-  const int id = problem_.contact[c];
-  if (id < 0) return &limit_staged_[-1 - id];
-  if (solved_[id]) return &staged_[id];  // an earlier round of candidate screening
-  const int previous = cdata_.contacts[id].previous;
-  if (previous < 0 || previous >= static_cast<int>(previous_staged_.size())) return nullptr;
-  return &previous_staged_[previous];
+namespace {
+// warm-start value of problem row c: a model row's own, or its contact's previous impulse
+const StagedImpulse* previousStaged(const StepData& d, int c) {
+  const int id = d.problem.contact[c];
+  if (id < 0) return &d.limit_staged[-1 - id];  // limits, then constraints (StepData)
+  if (d.solved[id]) return &d.staged[id];       // an earlier round of candidate screening
+  const int previous = d.contact_data.contacts[id].previous;
+  if (previous < 0 || previous >= static_cast<int>(d.previous_staged.size())) return nullptr;
+  return &d.previous_staged[previous];
 }
+}  // namespace
 
-void TimeStepper::solveCatchingUp() {
+void solveCatchingUp(const StepModel& m, StepData& d) {
   const auto start = Clock::now();
-  const int n = problem_.size();
-  VectorX& v = v_free_;
+  const int n = d.problem.size();
+  VectorX& v = d.v_free;
   // warm start each stage from its own previous values
-  lambda_N_.assign(n, 0.0);
-  delta_.assign(n, 0.0);
-  lambda_T_.assign(n, Vector2::Zero());
+  d.lambda_N.assign(n, 0.0);
+  d.delta.assign(n, 0.0);
+  d.lambda_T.assign(n, Vector2::Zero());
   for (int c = 0; c < n; ++c) {
-    const StagedImpulse* previous = previousStaged(c);
+    const StagedImpulse* previous = previousStaged(d, c);
     if (previous == nullptr) continue;
-    lambda_N_[c] = previous->normal;
-    delta_[c] = previous->delta;
-    lambda_T_[c] = previous->tangent;
+    d.lambda_N[c] = previous->normal;
+    d.delta[c] = previous->delta;
+    d.lambda_T[c] = previous->tangent;
   }
-  stats_.kinetic_free = metricKinetic(v);
+  d.stats.kinetic_free = metricKinetic(m, d, v);
   // 5a: frictionless inelastic shock on the scaled normals
   const SolverStats normal =
-      solveNormalStage(problem_, settings_.normal_stage, lambda_N_, v, nlgs_ws_);
-  stats_.iterations_stage1 = normal.iterations;
-  stats_.updates = normal.updates;
-  stats_.residual = normal.residual;
-  stats_.status = normal.status;
-  stats_.cap_hit = normal.iterations >= settings_.normal_stage.max_iterations ||
-                   normal.status == SolverStatus::MaxIterations;
-  stats_.iterations_stage2 = 0;
-  stats_.kinetic_stage1 = metricKinetic(v);
+      solveNormalStage(d.problem, m.settings.normal_stage, d.lambda_N, v, d.solver_ws);
+  d.stats.iterations_stage1 = normal.iterations;
+  d.stats.updates = normal.updates;
+  d.stats.residual = normal.residual;
+  d.stats.status = normal.status;
+  d.stats.cap_hit = normal.iterations >= m.settings.normal_stage.max_iterations ||
+                    normal.status == SolverStatus::MaxIterations;
+  d.stats.iterations_stage2 = 0;
+  d.stats.kinetic_stage1 = metricKinetic(m, d, v);
   // 5b: friction with frozen thresholds, skipped when no contact or constraint can have it
-  if (!cmodel_.frictionless || constraint_friction_) {
-    const int rounds = 1 + settings_.friction.threshold_updates;
-    if (rounds > 1) v_stage1_ = v;
+  if (!m.cmodel.frictionless || m.constraint_friction) {
+    const int rounds = 1 + m.settings.friction.threshold_updates;
+    if (rounds > 1) d.v_stage1 = v;
     for (int round = 0; round < rounds; ++round) {
       const std::vector<double>* threshold = nullptr;
       if (round > 0) {
         // thresholds from the last round's total normal impulse on the rows 5a closed
-        threshold_impulse_.assign(n, 0.0);
+        d.threshold_impulse.assign(n, 0.0);
         for (int c = 0; c < n; ++c)
-          if (lambda_N_[c] > 0.0)
-            threshold_impulse_[c] =
-                std::max(lambda_N_[c] + delta_[c] +
-                             tangentNormalPart(problem_, c, settings_.friction, lambda_T_[c]),
+          if (d.lambda_N[c] > 0.0)
+            d.threshold_impulse[c] =
+                std::max(d.lambda_N[c] + d.delta[c] +
+                             tangentNormalPart(d.problem, c, m.settings.friction, d.lambda_T[c]),
                          0.0);
-        threshold = &threshold_impulse_;
-        v = v_stage1_;
+        threshold = &d.threshold_impulse;
+        v = d.v_stage1;
       }
       const SolverStats friction = solveFrictionStage(
-          problem_, settings_.friction_stage, settings_.friction, lambda_N_, delta_, lambda_T_, v,
-          nlgs_ws_, problem_.rolling ? &R_ : nullptr, threshold);
-      stats_.iterations_stage2 += friction.iterations;
-      stats_.updates += friction.updates;
+          d.problem, m.settings.friction_stage, m.settings.friction, d.lambda_N, d.delta,
+          d.lambda_T, v, d.solver_ws, d.problem.rolling ? &d.R : nullptr, threshold);
+      d.stats.iterations_stage2 += friction.iterations;
+      d.stats.updates += friction.updates;
       if (round + 1 < rounds) continue;
       // the last round's convergence is the step's
-      stats_.residual = std::max(stats_.residual, friction.residual);
-      stats_.cap_hit = stats_.cap_hit ||
-                       friction.iterations >= settings_.friction_stage.max_iterations ||
-                       friction.status == SolverStatus::MaxIterations;
-      if (friction.status != SolverStatus::Converged) stats_.status = friction.status;
+      d.stats.residual = std::max(d.stats.residual, friction.residual);
+      d.stats.cap_hit = d.stats.cap_hit ||
+                        friction.iterations >= m.settings.friction_stage.max_iterations ||
+                        friction.status == SolverStatus::MaxIterations;
+      if (friction.status != SolverStatus::Converged) d.stats.status = friction.status;
     }
   } else {
-    std::fill(delta_.begin(), delta_.end(), 0.0);
-    std::fill(lambda_T_.begin(), lambda_T_.end(), Vector2::Zero());
+    std::fill(d.delta.begin(), d.delta.end(), 0.0);
+    std::fill(d.lambda_T.begin(), d.lambda_T.end(), Vector2::Zero());
   }
   for (int c = 0; c < n; ++c) {
-    const double normal_total =
-        lambda_N_[c] + delta_[c] + tangentNormalPart(problem_, c, settings_.friction, lambda_T_[c]);
-    P_[c] = Vector3(normal_total, lambda_T_[c].x(), lambda_T_[c].y());
-    const int id = problem_.contact[c];
-    (id < 0 ? limit_staged_[-1 - id] : staged_[id]) =
-        StagedImpulse{lambda_N_[c], delta_[c], lambda_T_[c]};
+    const double normal_total = d.lambda_N[c] + d.delta[c] +
+                                tangentNormalPart(d.problem, c, m.settings.friction, d.lambda_T[c]);
+    d.P[c] = Vector3(normal_total, d.lambda_T[c].x(), d.lambda_T[c].y());
+    const int id = d.problem.contact[c];
+    (id < 0 ? d.limit_staged[-1 - id] : d.staged[id]) =
+        StagedImpulse{d.lambda_N[c], d.delta[c], d.lambda_T[c]};
   }
-  stats_.local_failures = 0;
-  stats_.kinetic_solved = metricKinetic(v);
-  stats_.t_solve = seconds(start);
+  d.stats.local_failures = 0;
+  d.stats.kinetic_solved = metricKinetic(m, d, v);
+  d.stats.t_solve = seconds(start);
 }
 
+}  // namespace stepping
 }  // namespace sweep

@@ -147,23 +147,15 @@ void runInterruptibly(std::atomic<bool>& stop, Work&& work) {
   if (interrupted) throw py::error_already_set();
 }
 
+// the names and values of stats.csv's columns (visitStepStats), timings included
 py::dict stepStatsDict(const StepStats& s) {
   py::dict d;
-  d["step"] = s.step;
-  d["t"] = s.t;
-  d["candidates"] = s.candidates;
-  d["active"] = s.active;
-  d["iterations_stage1"] = s.iterations_stage1;
-  d["iterations_stage2"] = s.iterations_stage2;
-  d["residual"] = s.residual;
-  d["cap_hit"] = s.cap_hit;
-  d["status"] = enumName(s.status);
-  d["penetration_max"] = s.penetration_max;
-  d["penetration_sum"] = s.penetration_sum;
-  d["kinetic"] = s.kinetic;
-  d["potential"] = s.potential;
-  d["work_normal"] = s.work_normal;
-  d["work_tangent"] = s.work_tangent;
+  visitStepStats(s, true, [&](const char* name, const auto& value) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(value)>, SolverStatus>)
+      d[name] = enumName(value);
+    else
+      d[name] = value;
+  });
   return d;
 }
 

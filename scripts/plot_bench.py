@@ -105,7 +105,7 @@ def plot_pareto(rows, folder, gains):
 
 def read_stats(path):
     with open(path) as f:
-        return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+        return [{k: float(v) for k, v in r.items() if k != "status"} for r in csv.DictReader(f)]
 
 
 def plot_iterations(rows, folder, wanted_dt):
@@ -122,12 +122,12 @@ def plot_iterations(rows, folder, wanted_dt):
         t = [s["t"] for s in stats]
         style = STYLE.get(scheme, dict(label=scheme))
         if scheme == "catching-up":
-            ax.plot(t, [s["iters_stage1"] for s in stats], color=style["color"], lw=0.8,
+            ax.plot(t, [s["iterations_stage1"] for s in stats], color=style["color"], lw=0.8,
                     label=style["label"] + ", stage 1 (shock)")
-            ax.plot(t, [s["iters_stage2"] for s in stats], color="tab:cyan", lw=0.8,
+            ax.plot(t, [s["iterations_stage2"] for s in stats], color="tab:cyan", lw=0.8,
                     label=style["label"] + ", stage 2 (friction)")
         else:
-            ax.plot(t, [s["iters_stage1"] + s["iters_stage2"] for s in stats],
+            ax.plot(t, [s["iterations_stage1"] + s["iterations_stage2"] for s in stats],
                     color=style.get("color"), lw=0.8, label=style["label"])
     ax.set_yscale("symlog", linthresh=10)
     ax.set_xlabel("t (s)")

@@ -14,6 +14,7 @@
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include "apps/sweep/layer_output.hpp"
 #include "apps/sweep/vtk_writer.hpp"
@@ -48,21 +49,31 @@ std::string formatDuration(double seconds) {
   return s.str();
 }
 
-const char* kStatsHeader =
-    "step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,pen_sum,"
-    "pen_count,kinetic,potential,work_normal,work_tangent";
-const char* kTimingHeader = ",t_detect,t_assemble,t_solve,t_update";
+// stats.csv: a header of the statistics' names, then one row per step (visitStepStats)
+void writeStatsHeader(std::ostream& out, bool timings) {
+  const char* separator = "";
+  visitStepStats(StepStats{}, timings, [&](const char* name, const auto&) {
+    out << separator << name;
+    separator = ",";
+  });
+  out << '\n';
+}
 
 void appendStatsRow(std::ostream& out, const StepStats& s, bool timings) {
-  out << s.step << ',' << exactNumber(s.t) << ',' << s.candidates << ',' << s.active << ','
-      << s.iterations_stage1 << ',' << s.iterations_stage2 << ',' << exactNumber(s.residual) << ','
-      << (s.cap_hit ? 1 : 0) << ',' << exactNumber(s.penetration_max) << ','
-      << exactNumber(s.penetration_sum) << ',' << s.penetration_count << ','
-      << exactNumber(s.kinetic) << ',' << exactNumber(s.potential) << ','
-      << exactNumber(s.work_normal) << ',' << exactNumber(s.work_tangent);
-  if (timings)
-    out << ',' << exactNumber(s.t_detect) << ',' << exactNumber(s.t_assemble) << ','
-        << exactNumber(s.t_solve) << ',' << exactNumber(s.t_update);
+  const char* separator = "";
+  visitStepStats(s, timings, [&](const char*, const auto& value) {
+    using Value = std::decay_t<decltype(value)>;
+    out << separator;
+    separator = ",";
+    if constexpr (std::is_same_v<Value, double>)
+      out << exactNumber(value);
+    else if constexpr (std::is_same_v<Value, bool>)
+      out << (value ? 1 : 0);
+    else if constexpr (std::is_same_v<Value, SolverStatus>)
+      out << enumName(value);
+    else
+      out << value;
+  });
   out << '\n';
 }
 
@@ -318,7 +329,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   if (files && settings.output.stats) {
     stats.open(stats_path + ".partial", std::ios::binary);
     if (!stats) throw std::runtime_error(stats_path + ".partial: cannot open for writing");
-    stats << kStatsHeader << (settings.output.timings ? kTimingHeader : "") << '\n';
+    writeStatsHeader(stats, settings.output.timings);
   }
   std::unique_ptr<VtkSeries> vtk;
   const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;

@@ -19,9 +19,10 @@ from scratch import scratch_dir
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
 DATA = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "tests/data"
 SCENES = os.path.join(DATA, "scenes")
-HEADER = ("step,t,n_candidates,n_active,iters_stage1,iters_stage2,residual,cap_hit,pen_max,"
-          "pen_sum,pen_count,kinetic,potential,work_normal,work_tangent,t_detect,t_assemble,"
-          "t_solve,t_update")
+HEADER = ("step,t,candidates,active,islands,iterations_stage1,iterations_stage2,updates,residual,"
+          "cap_hit,status,penetration_max,penetration_sum,penetration_count,kinetic,potential,"
+          "work_normal,work_tangent,solves,deferred,redetections,t_detect,t_assemble,t_solve,"
+          "t_update")
 
 
 def sweep(*args, cwd=SCENES):
@@ -68,14 +69,14 @@ class Run(unittest.TestCase):
         self.assertEqual(s["scheme"], "catching-up")
         self.assertEqual(s["steps"], len(rows))
         self.assertFalse(s["interrupted"])
-        pen = sum(float(r["pen_sum"]) for r in rows)
+        pen = sum(float(r["penetration_sum"]) for r in rows)
         self.assertAlmostEqual(s["penetration"]["cumulative"], pen, delta=1e-12 * max(pen, 1e-30))
-        self.assertAlmostEqual(s["penetration"]["peak"], max(float(r["pen_max"]) for r in rows))
-        totals = [int(r["iters_stage1"]) + int(r["iters_stage2"]) for r in rows]
+        self.assertAlmostEqual(s["penetration"]["peak"], max(float(r["penetration_max"]) for r in rows))
+        totals = [int(r["iterations_stage1"]) + int(r["iterations_stage2"]) for r in rows]
         self.assertEqual(s["iterations"]["max"], max(totals))
         self.assertAlmostEqual(s["iterations"]["mean"], sum(totals) / len(totals))
         self.assertEqual(s["iterations"]["cap_hit_steps"], sum(int(r["cap_hit"]) for r in rows))
-        self.assertEqual(s["contacts"]["max_active"], max(int(r["n_active"]) for r in rows))
+        self.assertEqual(s["contacts"]["max_active"], max(int(r["active"]) for r in rows))
         final = float(rows[-1]["kinetic"]) + float(rows[-1]["potential"])
         self.assertAlmostEqual(s["energy"]["final"], final, delta=1e-9 * abs(final))
 
@@ -460,8 +461,8 @@ class TiledBed(unittest.TestCase):
         self.assertEqual(len(rows1), 10)
         # every pair of the one-copy bed, those through its periodic boundary included, is
         # two pairs of the two-copy bed on the first step
-        self.assertGreater(int(rows1[0]["n_active"]), 20)
-        self.assertEqual(int(rows2[0]["n_active"]), 2 * int(rows1[0]["n_active"]))
+        self.assertGreater(int(rows1[0]["active"]), 20)
+        self.assertEqual(int(rows2[0]["active"]), 2 * int(rows1[0]["active"]))
         self.assertEqual(len(q2), 2 * len(q1))
         worst = 0.0
         for copy in (0, 1):

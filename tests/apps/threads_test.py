@@ -84,7 +84,7 @@ class SameBitsForEveryThreadCount(unittest.TestCase):
                         results[threads] = run(out, scene, scheme, threads, extra)
                         self.assertEqual(results[threads][2]["threads"], threads)
                     state, stats, _ = results[1]
-                    self.assertGreaterEqual(max(int(r["n_active"]) for r in stats), rows)
+                    self.assertGreaterEqual(max(int(r["active"]) for r in stats), rows)
                     for threads in (2, 4):
                         self.assertEqual(results[threads][0], state, f"{threads} threads")
                         self.assertEqual(results[threads][1], stats, f"{threads} threads")
