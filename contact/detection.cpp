@@ -70,9 +70,7 @@ ContactData& ContactData::operator=(ContactData&&) noexcept = default;
 void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
                          ContactData& cdata) {
   const int n = cmodel.size();
-#pragma omp parallel for schedule(static) \
-    num_threads(data.threads) if (data.threads > 1 && n >= kParallelItems)
-  for (int i = 0; i < n; ++i) {
+  forEachIndex(n, data.threads, [&](int i) {
     const Geometry& g = cmodel.geometries[i];
     switch (g.body.kind) {
       case BodyRef::Kind::World:
@@ -85,7 +83,7 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
         cdata.geometry_pose[i] = model.driven_bodies[g.body.index].pose(t) * g.placement;
         break;
     }
-  }
+  });
 }
 
 double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
@@ -392,34 +390,43 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
   cdata.sorted_pairs.resize(pair_count);
   const auto& unsorted = cdata.pairs;
   auto& sorted = cdata.sorted_pairs;
-#pragma omp parallel num_threads(ranges) if (parallel)
-  {
-#pragma omp for schedule(static, 1)
-    for (int r = 0; r < ranges; ++r) {
-      int* count = range_start.data() + r * stride;
-      for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
-           ++k)
-        ++count[unsorted[k].first + 1];
-    }
-#pragma omp single
+  auto countRange = [&](int r) {
+    int* count = range_start.data() + r * stride;
+    for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
+         ++k)
+      ++count[unsorted[k].first + 1];
+  };
+  auto placeRanges = [&] {
+    // geometry g's pairs: range 0's, range 1's, ...; each range's cursor at its first slot
+    int next = 0;
+    for (int g = 0; g < geometries; ++g)
+      for (int r = 0; r < ranges; ++r) {
+        int& slot = range_start[r * stride + g + 1];
+        const int count = slot;
+        slot = next;
+        next += count;
+      }
+  };
+  auto scatterRange = [&](int r) {
+    int* cursor = range_start.data() + r * stride;
+    for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
+         ++k)
+      sorted[cursor[unsorted[k].first + 1]++] = unsorted[k];
+  };
+  if (parallel) {
+#pragma omp parallel num_threads(ranges)
     {
-      // geometry g's pairs: range 0's, range 1's, ...; each range's cursor at its first slot
-      int next = 0;
-      for (int g = 0; g < geometries; ++g)
-        for (int r = 0; r < ranges; ++r) {
-          int& slot = range_start[r * stride + g + 1];
-          const int count = slot;
-          slot = next;
-          next += count;
-        }
-    }
 #pragma omp for schedule(static, 1)
-    for (int r = 0; r < ranges; ++r) {
-      int* cursor = range_start.data() + r * stride;
-      for (std::size_t k = runBegin(pair_count, r, ranges); k < runBegin(pair_count, r + 1, ranges);
-           ++k)
-        sorted[cursor[unsorted[k].first + 1]++] = unsorted[k];
+      for (int r = 0; r < ranges; ++r) countRange(r);
+#pragma omp single
+      placeRanges();
+#pragma omp for schedule(static, 1)
+      for (int r = 0; r < ranges; ++r) scatterRange(r);
     }
+  } else {
+    countRange(0);
+    placeRanges();
+    scatterRange(0);
   }
   // the end of each geometry's run: the last range's cursor after its scatter
   start.resize(stride);
@@ -427,8 +434,7 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
   std::swap(cdata.pairs, cdata.sorted_pairs);
   auto& pairs = cdata.pairs;
   constexpr int kInsertionRun = 32;
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads) if (parallel)
-  for (int g = 0; g < geometries; ++g) {
+  auto sortRun = [&](int g) {
     const int run_begin = g == 0 ? 0 : start[g - 1], run_end = start[g];
     if (run_end - run_begin > kInsertionRun) {
       // a plate's run comes in grain order already
@@ -439,6 +445,12 @@ void sortPairs(int geometries, ContactData& cdata, int threads) {
         for (int m = k; m > run_begin && pairs[m] < pairs[m - 1]; --m)
           std::swap(pairs[m], pairs[m - 1]);
     }
+  };
+  if (parallel) {
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
+    for (int g = 0; g < geometries; ++g) sortRun(g);
+  } else {
+    for (int g = 0; g < geometries; ++g) sortRun(g);
   }
 }
 
@@ -685,17 +697,15 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     const ContactModel::Traits& tb = cmodel.traits[cdata.contacts[c].key.geometry_b];
     return ta.ball_radius > 0.0 && tb.ball_radius > 0.0 && cmodel.path == DetectionPath::Analytic;
   };
-#pragma omp parallel for schedule(static) \
-    num_threads(data.threads) if (data.threads > 1 && m >= kParallelItems)
-  for (long c = 0; c < m; ++c) {
+  forEachIndex(m, data.threads, [&](long c) {
     gaps[c] = far;
-    if (!ballPair(c)) continue;
+    if (!ballPair(c)) return;
     const int a = cdata.contacts[c].key.geometry_a, b = cdata.contacts[c].key.geometry_b;
     const Vector3 center_b = cdata.geometry_pose[b].translation +
                              imageShift(cmodel.settings.periodic, cdata.contacts[c].key.feature);
     gaps[c] = (center_b - cdata.geometry_pose[a].translation).norm() -
               cmodel.traits[a].ball_radius - cmodel.traits[b].ball_radius;
-  }
+  });
   // the other pairs on this thread, their contacts together (one narrowphase per pair); found
   // by their gaps, still `far`: reading each contact's key took a cache line per ball pair
   std::size_t c = 0;

@@ -12,15 +12,35 @@ namespace sweep {
 // (docs/architecture.md, "Threads are OpenMP").
 constexpr long kParallelItems = 8192;
 
+// body(i) for i in [0, n), split statically over `threads` threads, or a plain loop on this
+// one for threads <= 1. A serial loop never enters a parallel construct: an OpenMP `if(false)`
+// region still makes a one-thread team, which libgomp allocates and ends with a futex system
+// call, a third of the step time of a 20-contact scene (docs/architecture.md, "Threads are
+// OpenMP").
+template <class Index, class Body>
+void parallelFor(Index n, int threads, Body&& body) {
+  if (threads <= 1) {
+    for (Index i = 0; i < n; ++i) body(i);
+    return;
+  }
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (Index i = 0; i < n; ++i) body(i);
+}
+
+// body(i) for i in [0, n), on up to `threads` threads from kParallelItems items on: for loops
+// whose items write only their own entries.
+template <class Index, class Body>
+void forEachIndex(Index n, int threads, Body&& body) {
+  parallelFor(n, n >= kParallelItems ? threads : 1, body);
+}
+
 // visit(c) for each component c with bodies (the trees; systems by their equations, which
 // may call back into an interpreter, are left to the caller), on up to `threads` threads once
 // there are kParallelItems of them: a granular scene, a particle each.
 template <class Visit>
 void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
   const int count = static_cast<int>(model.components.size() - model.systems.size());
-#pragma omp parallel for schedule(static) \
-    num_threads(threads) if (threads > 1 && count >= kParallelItems)
-  for (int c = 0; c < count; ++c) visit(c);
+  forEachIndex(count, threads, visit);
 }
 
 // Folds add(i, part) over i in [0, n) chunk by chunk (kReduceChunk items each, every part
@@ -56,15 +76,6 @@ template <class T, class Add, class Combine>
 T reduceInChunks(long n, int threads, const T& init, Add&& add, Combine&& combine) {
   std::vector<T> parts;
   return reduceInChunks(n, threads, init, parts, add, combine);
-}
-
-// body(i) for i in [0, n), on up to `threads` threads from kParallelItems items on: for loops
-// whose items write only their own entries.
-template <class Body>
-void forEachIndex(long n, int threads, Body&& body) {
-#pragma omp parallel for schedule(static) \
-    num_threads(threads) if (threads > 1 && n >= kParallelItems)
-  for (long i = 0; i < n; ++i) body(i);
 }
 
 // reduceInChunks for one sum: add(i, sum) adds item i's terms to sum

@@ -124,8 +124,7 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
   if (static_cast<int>(ws.thread_touched.size()) < threads) ws.thread_touched.resize(threads);
   classifyContacts(deferred, threads);
   const int rows = numberRows();
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (int pc = 0; pc < rows; ++pc) {
+  parallelFor(rows, threads, [&](int pc) {
     const int c = p.contact[pc];
     std::vector<int>& touched = ws.thread_touched[omp_get_thread_num()];
     switch (ws.row_kind[c]) {
@@ -141,7 +140,7 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
       default:
         break;
     }
-  }
+  });
   for (int pc = 0; pc < rows; ++pc) {
     if (ws.row_kind[p.contact[pc]] != kSerialRow) continue;
     contactEntryRow(pc, p.contact[pc], ws.touched);
@@ -156,8 +155,7 @@ void ProblemAssembly::classifyContacts(const std::vector<char>* deferred, int th
   const int m = static_cast<int>(cdata.contacts.size());
   ws.row_kind.resize(m);
   ws.row_minv_entries.resize(m);
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (int c = 0; c < m; ++c) {
+  parallelFor(m, threads, [&](int c) {
     const Contact& contact = cdata.contacts[c];
     char kind = kNoRow;
     int minv_entries = 0;
@@ -175,7 +173,7 @@ void ProblemAssembly::classifyContacts(const std::vector<char>* deferred, int th
     }
     ws.row_kind[c] = kind;
     ws.row_minv_entries[c] = minv_entries;
-  }
+  });
 }
 
 int ProblemAssembly::numberRows() {

@@ -35,14 +35,13 @@ double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
   const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
   if (chunked) {
     const int chunks = ws.colour_chunk[kColours + 1];
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (int chunk = 0; chunk < chunks; ++chunk) {
+    parallelFor(chunks, threads, [&](int chunk) {
       const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
       double f2 = 0.0, scale2 = 0.0;
       coulombResidualTerms(rows, P, R, v, ws.order.data() + first, last - first, f2, scale2);
       ws.chunk_change2[chunk] = f2;
       ws.chunk_size2[chunk] = scale2;
-    }
+    });
     double f2 = 0.0, scale2 = 0.0;
     for (int chunk = 0; chunk < chunks; ++chunk) {
       f2 += ws.chunk_change2[chunk];

@@ -20,14 +20,13 @@ inline void rootBodyTwists(const Model& model, const Data& data, const VectorX& 
                            std::vector<Vector6>& twists, int threads) {
   twists.resize(model.bodies.size());
   const long bodies = static_cast<long>(model.bodies.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (bodies >= kParallelItems)
-  for (long b = 0; b < bodies; ++b) {
-    if (model.bodies[b].parent >= 0) continue;
+  forEachIndex(bodies, threads, [&](long b) {
+    if (model.bodies[b].parent >= 0) return;
     const Vector6 local = data.motion_subspace[b].apply(v.data() + model.bodies[b].v_index);
     const Matrix3& R = data.world_pose[b].rotation;
     twists[b].head<3>() = R * local.head<3>();
     twists[b].tail<3>() = R * local.tail<3>();
-  }
+  });
 }
 
 // Whether each side is a root body, a driven body or the world: then U_N follows from the

@@ -109,14 +109,13 @@ class DissectionOrdering {
       side_order_[s].resize(nodes.size());
     }
     int ordered[2] = {1, 1};
-#pragma omp parallel for schedule(static, 1) num_threads(std::min(threads, 2)) if (threads > 1)
-    for (int s = 0; s < 2; ++s) {
+    parallelFor(2, std::min(threads, 2), [&](int s) {
       const int m = static_cast<int>(side_node_[s].size());
-      if (m == 0) continue;
+      if (m == 0) return;
       cholmod_sparse lower = sparseView(m, side_begin_[s], side_row_[s], nullptr, -1);
       ordered[s] = cholmod_camd(&lower, nullptr, 0, side_constraint_[s].data(),
                                 side_order_[s].data(), &common_[s]);
-    }
+    });
     if (!ordered[0] || !ordered[1]) return false;
     // side 0, side 1, then the separator in side 0's order (the whole of it when side 0 is
     // empty: then side_node_[0] is the separator)

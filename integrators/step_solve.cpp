@@ -69,25 +69,30 @@ int admitViolators(const StepModel& m, StepData& d) {
   int admitted = 0;
   bool stale = false;
   const int contacts = static_cast<int>(d.deferred.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (contacts >= kParallelItems) \
-    reduction(+ : admitted) reduction(|| : stale)
-  for (int id = 0; id < contacts; ++id) {
-    if (!d.deferred[id]) continue;
+  auto judge = [&](int id, int& admitted_part, bool& stale_part) {
+    if (!d.deferred[id]) return;
     if (d.unassembled[id]) {
       std::array<double, 1> u_end;
       normalVelocitiesFromTwists<1>(m.model, d.model_data, d.contact_data.contacts[id],
                                     {&d.end_twist}, t_m, u_end);
       if (tau * (u_end[0] + d.screening_bias[id]) < -slack) {
         d.deferred[id] = d.unassembled[id] = 0;
-        stale = true;  // its rows are built before the next solve
-        ++admitted;
+        stale_part = true;  // its rows are built before the next solve
+        ++admitted_part;
       }
-      continue;
+      return;
     }
     if (tau * (J.relativeVelocity(id, d.v_free).x() + d.screening_bias[id]) < -slack) {
       d.deferred[id] = 0;
-      ++admitted;
+      ++admitted_part;
     }
+  };
+  if (threads > 1 && contacts >= kParallelItems) {
+#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : admitted) \
+    reduction(|| : stale)
+    for (int id = 0; id < contacts; ++id) judge(id, admitted, stale);
+  } else {
+    for (int id = 0; id < contacts; ++id) judge(id, admitted, stale);
   }
   if (stale) d.jacobian_stale = true;
   return admitted;
@@ -99,22 +104,21 @@ void keepImpulses(const StepModel& m, StepData& d) {
   std::fill(d.constraint_impulse.begin(), d.constraint_impulse.end(), Vector3::Zero());
   // rows name distinct contacts, limits and constraints: each writes its own entries
   const int n = d.problem.size();
-#pragma omp parallel for schedule(static) num_threads(m.threads) if (n >= kParallelItems)
-  for (int c = 0; c < n; ++c) {
+  forEachIndex(n, m.threads, [&](int c) {
     const int id = d.problem.contact[c];
     const RowOwner owner = rowOwner(m.model, id);
     if (owner.kind == RowOwner::Limit) {
       d.limit_impulse[owner.index] = d.P[c].x();
-      continue;
+      return;
     }
     if (owner.kind == RowOwner::Constraint) {
       d.constraint_impulse[owner.index] = d.P[c];
-      continue;
+      return;
     }
     d.impulse[id] = d.P[c];
     if (d.problem.rolling) d.rolling[id] = d.R[c];
     d.solved[id] = 1;
-  }
+  });
 }
 
 double metricKinetic(const StepModel& m, StepData& d, const VectorX& v) {

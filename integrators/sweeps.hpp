@@ -7,6 +7,7 @@
 #include <cmath>
 #include <initializer_list>
 
+#include "framework/parallel.hpp"
 #include "integrators/contact_problem.hpp"
 #include "integrators/solver_settings.hpp"
 #include "integrators/solver_workspace.hpp"
@@ -237,8 +238,7 @@ class NncgMomentum {
       std::sort(ws.island_dofs.begin(), ws.island_dofs.begin() + dofs_);
     }
     const int width = rowWidth();
-#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
-    for (int k = 0; k < n; ++k) {
+    parallelFor(n, threads_, [&](int k) {
       int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
         const double* x = arrays_[a].data + ws.order[k] * arrays_[a].width;
@@ -247,12 +247,11 @@ class NncgMomentum {
           ws.impulse_direction[slot] = 0.0;
         }
       }
-    }
-#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
-    for (int i = 0; i < dofs_; ++i) {
+    });
+    parallelFor(dofs_, threads_, [&](int i) {
       ws.v_before[i] = v[ws.island_dofs[i]];
       ws.v_direction[i] = 0.0;
-    }
+    });
   }
 
   // After a sweep whose own impulse change was change2 (in the solver's norm): the momentum
@@ -268,18 +267,17 @@ class NncgMomentum {
     previous_change2_ = change2;
     // element by element: any split between threads gives the same bits
     const int width = rowWidth();
-#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
-    for (int k = 0; k < n_; ++k) {
+    parallelFor(n_, threads_, [&](int k) {
       int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
         double* x = arrays_[a].data + ws_.order[k] * arrays_[a].width;
         for (int j = 0; j < arrays_[a].width; ++j, ++slot)
           advance(beta, x[j], ws_.impulse_before[slot], ws_.impulse_direction[slot]);
       }
-    }
-#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
-    for (int i = 0; i < dofs_; ++i)
+    });
+    parallelFor(dofs_, threads_, [&](int i) {
       advance(beta, v[ws_.island_dofs[i]], ws_.v_before[i], ws_.v_direction[i]);
+    });
   }
 
  private:

@@ -283,12 +283,12 @@ void assembleJacobian(const StepModel& m, StepData& d) {
   d.jacobian_skip.resize(contacts);
   if (m.cmodel.dimension == 3) findFreeParticles(m.model, d.model_data, m.cmodel, d.problem_ws);
   const int threads = m.threads;
-#pragma omp parallel for schedule(static) num_threads(threads) if (contacts >= kParallelItems)
-  for (int id = 0; id < contacts; ++id)
+  forEachIndex(contacts, threads, [&](int id) {
     d.jacobian_skip[id] =
         (!d.unassembled.empty() && d.unassembled[id]) ||
         (d.problem.pack_body_form &&
          rowInBodyForm(m.model, d.model_data, m.cmodel, d.contact_data.contacts[id], d.problem_ws));
+  });
   assembleContactJacobian(m.model, d.model_data, m.cmodel, d.contact_data, d.t + 0.5 * m.settings.h,
                           max_gap, &d.jacobian_skip);
   d.jacobian_stale = false;
@@ -340,32 +340,30 @@ void assemble(const StepModel& m, StepData& d) {
     bias = normalBias(m.settings.normal_law, contact.restitution, u_start, contact.gap, tau);
     return tau * (bias + factor * std::min({u_start, u_free, u_pushed, 0.0})) > slack;
   };
-#pragma omp parallel for schedule(static) num_threads(threads) if (contacts >= kParallelItems)
-  for (int id = 0; id < contacts; ++id) {
+  forEachIndex(contacts, threads, [&](int id) {
     const Contact& contact = d.contact_data.contacts[id];
     if (m.settings.normal_law == NormalLaw::Vel || contact.gap <= near || carriedImpulse(contact))
-      continue;
+      return;
     std::array<double, 3> u;  // at the start, contact-free, contact-free plus the last push
     if (!normalVelocitiesFromTwists<3>(m.model, d.model_data, contact,
                                        {&d.start_twist, &d.free_twist, &d.end_twist}, t_m, u))
-      continue;
+      return;
     if (leaveOut(contact, u[0], u[1], u[2], d.screening_bias[id]))
       d.unassembled[id] = d.deferred[id] = 1;
-  }
+  });
   d.stats.t_assemble += seconds(start);
   assembleJacobian(m, d);
   // contacts with a link of a tree, from their Jacobian rows
   const ContactJacobian& J = d.contact_data.jacobian;
-#pragma omp parallel for schedule(static) num_threads(threads) if (contacts >= kParallelItems)
-  for (int id = 0; id < contacts; ++id) {
+  forEachIndex(contacts, threads, [&](int id) {
     const Contact& contact = d.contact_data.contacts[id];
-    if (betweenRoots(m.model, contact)) continue;
-    if (m.settings.normal_law == NormalLaw::Vel && contact.gap > touching) continue;
-    if (contact.gap <= near || carriedImpulse(contact)) continue;
+    if (betweenRoots(m.model, contact)) return;
+    if (m.settings.normal_law == NormalLaw::Vel && contact.gap > touching) return;
+    if (contact.gap <= near || carriedImpulse(contact)) return;
     d.deferred[id] =
         leaveOut(contact, J.relativeVelocity(id, d.v).x(), J.relativeVelocity(id, d.v_free).x(),
                  J.relativeVelocity(id, d.v_predicted).x(), d.screening_bias[id]);
-  }
+  });
   assembleProblem(m, d);
 }
 
@@ -383,22 +381,21 @@ void assembleProblem(const StepModel& m, StepData& d) {
   // contacts
   d.P.assign(n, Vector3::Zero());
   d.R.assign(d.problem.rolling ? n : 0, Vector2::Zero());
-#pragma omp parallel for schedule(static) num_threads(m.threads) if (n >= kParallelItems)
-  for (int c = 0; c < n; ++c) {
+  forEachIndex(n, m.threads, [&](int c) {
     const int id = d.problem.contact[c];
     const RowOwner owner = rowOwner(m.model, id);
     if (owner.kind == RowOwner::Limit) {
       d.P[c].x() = d.limit_impulse[owner.index];
-      continue;
+      return;
     }
     if (owner.kind == RowOwner::Constraint) {
       d.P[c] = d.constraint_impulse[owner.index];
-      continue;
+      return;
     }
     if (d.solved[id]) {
       d.P[c] = d.impulse[id];
       if (d.problem.rolling) d.R[c] = d.rolling[id];
-      continue;
+      return;
     }
     const int previous = d.contact_data.contacts[id].previous;
     if (previous >= 0 && previous < static_cast<int>(d.previous_impulse.size()))
@@ -406,7 +403,7 @@ void assembleProblem(const StepModel& m, StepData& d) {
     if (d.problem.rolling && previous >= 0 &&
         previous < static_cast<int>(d.previous_rolling.size()))
       d.R[c] = d.previous_rolling[previous];
-  }
+  });
   d.stats.t_assemble += seconds(start);
 }
 
