@@ -21,6 +21,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FUNNEL = os.path.join(ROOT, "examples", "funnel", "funnel.yaml")
 POWDER = os.path.join(ROOT, "examples", "powder_bed", "powder_bed_reduced.yaml")
 FAST = os.path.join(ROOT, "examples", "powder_bed", "fast.yaml")
+ARM = os.path.join(ROOT, "examples", "archetypes", "arm_on_table.yaml")
+ROCKING = os.path.join(ROOT, "examples", "archetypes", "rocking_block.yaml")
 FUNNEL_500 = ["--set", "generators[0].count=500",
               "--set", "generators[0].orifice=0.008032185256827685"]
 NLGS_STAGES = ["--set", "scheme.normal_stage.solver=nlgs",
@@ -34,6 +36,10 @@ CASES = {
     "powder heap catching-up nlgs": [POWDER, "--scheme", "catching-up", "--t-end", "0.02",
                                      *NLGS_STAGES],
     "powder fast moreau-jean": [POWDER, "--scheme", "moreau-jean", "--set-file", FAST],
+    # small scenes: the step's fixed costs
+    "arm on table moreau-jean": [ARM, "--scheme", "moreau-jean", "--t-end", "20"],
+    "arm on table catching-up": [ARM, "--scheme", "catching-up", "--t-end", "20"],
+    "rocking block catching-up": [ROCKING, "--scheme", "catching-up", "--t-end", "10"],
 }
 
 
