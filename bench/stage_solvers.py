@@ -38,10 +38,9 @@ CONFIGS = [
     ("catching-up", ["--scheme", "catching-up"]),
     # the row storages' worth (docs/architecture.md, "Contact rows in two forms"): every row
     # from the generic arrays, or spheres' rows in body form instead of compact
-    ("moreau-jean generic rows", ["--scheme", "moreau-jean", "--set", "scheme.packed_rows=false"]),
-    ("moreau-jean body-form rows", ["--scheme", "moreau-jean", "--set",
-                                    "scheme.compact_sphere_rows=false"]),
-    ("catching-up generic rows", ["--scheme", "catching-up", "--set", "scheme.packed_rows=false"]),
+    ("moreau-jean generic rows", ["--scheme", "moreau-jean", "--row-storage", "generic"]),
+    ("moreau-jean body-form rows", ["--scheme", "moreau-jean", "--row-storage", "body-form"]),
+    ("catching-up generic rows", ["--scheme", "catching-up", "--row-storage", "generic"]),
 ]
 
 

@@ -205,11 +205,15 @@ void collectDofs(const ContactProblem& p, int nv, SolverWorkspace::Convex& ws) {
   std::sort(ws.dofs.begin(), ws.dofs.end());
 }
 
-// The stage's program by the stage's solver: active-set Newton when asked for (auto: in 2D)
-// and every set is a box, else MPRGP on boxes and APGD on discs.
+// The stage's program by the stage's solver: the interior-point method when asked for, active-set
+// Newton when asked for (auto: in 2D) and every set is a box, else MPRGP on boxes and APGD on
+// discs.
 MprgpStats solveProgram(const ContactProblem& p, const QpOperator& op,
                         const SolverSettings& settings, SolverWorkspace::Convex& ws,
                         ProjectedNewtonWorkspace& newton, VectorX& v) {
+  if (settings.solver == StageSolver::InteriorPoint && interiorPointApplies(ws.set))
+    return solveInteriorPoint(op, ws.set, mprgpSettings(settings), ws.x, v, newton,
+                              ws.interior_point, ws.mprgp);
   const bool use_newton = settings.solver == StageSolver::Newton ||
                           (settings.solver == StageSolver::Auto && p.dimension == 2);
   if (use_newton && projectedNewtonApplies(ws.set))

@@ -44,10 +44,8 @@ bool projectedNewtonApplies(const SeparableSet& set) {
   return true;
 }
 
-namespace {
-
 // A = J^T K, lower triangle: Gustavson's product over J by velocity.
-void formProduct(ProjectedNewtonWorkspace& ws, int n, int velocities) {
+void formDelassus(ProjectedNewtonWorkspace& ws, int n, int velocities) {
   const SparseColumns &J = ws.J, &K = ws.K;
   // J by velocity (a counting sort of its entries)
   ws.by_dof_begin.assign(velocities + 1, 0);
@@ -123,8 +121,8 @@ void formProduct(ProjectedNewtonWorkspace& ws, int n, int velocities) {
 
 // y = A x + b, row by row on threads: each y_i summed over its row in increasing column order,
 // the order of a product over the lower triangle by columns, whatever the thread count
-void gradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
-              std::vector<double>& y, int threads) {
+void delassusGradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
+                      std::vector<double>& y, int threads) {
   forEachIndex(static_cast<long>(x.size()), threads, [&](long i) {
     double sum = ws.b[i];
     for (int e = ws.full_begin[i]; e < ws.full_begin[i + 1]; ++e)
@@ -132,6 +130,8 @@ void gradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
     y[i] = sum;
   });
 }
+
+namespace {
 
 // f = 1/2 x^T A x + b^T x from g = A x + b
 double objective(const std::vector<double>& x, const std::vector<double>& g,
@@ -254,7 +254,7 @@ class NewtonSolve {
     ws_.binding.resize(n);
     op_.toGradient(v, true, ws_.b);  // b: the gradient at x = 0
     stats.products = 1;
-    formProduct(ws_, n, static_cast<int>(v.size()));
+    formDelassus(ws_, n, static_cast<int>(v.size()));
     if (!ws_.cholesky) ws_.cholesky = std::make_unique<SparseCholesky>();
     ws_.factor_value.resize(ws_.a_value.size());
     usable_ = ws_.cholesky->analyze(n, ws_.a_begin, ws_.a_row, threads_);
@@ -262,7 +262,7 @@ class NewtonSolve {
     const long chunks = (std::max(n, set_.blocks()) + kReduceChunk - 1) / kReduceChunk;
     ws_.sum_parts.reserve(chunks);
     ws_.residual_parts.reserve(chunks);
-    gradient(ws_, x_, ws_.g, threads_);
+    delassusGradient(ws_, x_, ws_.g, threads_);
     ws_.lower.resize(n);
     ws_.upper.resize(n);
     for (int b = 0; b < set_.blocks(); ++b)
@@ -335,7 +335,7 @@ class NewtonSolve {
   // the projection of x_trial, its gradient, and the best point kept
   void keepProjectedTrial() {
     projectOnThreads(set_, ws_.x_trial, threads_);
-    gradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
+    delassusGradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
     keepIfBest(ws_.x_trial, ws_.g_trial);
   }
 
@@ -354,12 +354,12 @@ class NewtonSolve {
       if (ws_.side[i] == kLower) x[i] = ws_.lower[i];
       if (ws_.side[i] == kUpper) x[i] = ws_.upper[i];
     });
-    gradient(ws_, x, ws_.g, threads_);
+    delassusGradient(ws_, x, ws_.g, threads_);
     if (!newtonDirection()) return usable_ = false;
     each([&](long i) {
       if (!ws_.binding[i]) x[i] += ws_.d[i];
     });
-    gradient(ws_, x, ws_.g, threads_);
+    delassusGradient(ws_, x, ws_.g, threads_);
     // the full step, projected, may already be the answer (the line search's test cannot see
     // a decrease below round-off)
     copy(x, ws_.x_trial);
@@ -382,7 +382,7 @@ class NewtonSolve {
       }
     }
     copy(ws_.x_best, x);
-    gradient(ws_, x, ws_.g, threads_);
+    delassusGradient(ws_, x, ws_.g, threads_);
     return false;
   }
 
@@ -408,7 +408,7 @@ class NewtonSolve {
       projectOnThreads(set_, ws_.x_trial, threads_);
       const double slope =
           sum([&](long i, double& part) { part += ws_.g[i] * (ws_.x_trial[i] - x[i]); });
-      gradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
+      delassusGradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
       if (slope <= 0.0 &&
           objective(ws_.x_trial, ws_.g_trial, ws_, threads_) <= f + kArmijo * slope) {
         copy(ws_.x_trial, x);
@@ -434,6 +434,32 @@ class NewtonSolve {
 
 }  // namespace
 
+bool acceptDirectAnswer(const QpOperator& op, const SeparableSet& set,
+                        const MprgpSettings& settings, const std::vector<double>& x, bool candidate,
+                        VectorX& v, std::vector<double>& g, MprgpWorkspace& fallback,
+                        MprgpStats& stats) {
+  const int n = set.variables;
+  // in z_trial, so that a fallback starts from v as given
+  fallback.prepare(n, static_cast<int>(v.size()));
+  op.toVelocity(x, fallback.z);
+  VectorX &z = fallback.z, &v_x = fallback.z_trial;
+  const std::vector<int>* dofs = op.dofs();
+  if (dofs != nullptr)
+    for (int k : *dofs) v_x[k] = v[k] + z[k];
+  else
+    v_x = v + z;
+  op.toGradient(v_x, true, g);
+  stats.products += 2;
+  stats.residual = naturalResidual(set, x, g);
+  stats.converged = candidate && stats.residual <= settings.tolerance;
+  if (!stats.converged) return false;
+  if (dofs != nullptr)
+    for (int k : *dofs) v[k] = v_x[k];
+  else
+    v = v_x;
+  return true;
+}
+
 MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
                                 const MprgpSettings& settings, std::vector<double>& x, VectorX& v,
                                 ProjectedNewtonWorkspace& ws, MprgpWorkspace& fallback) {
@@ -448,27 +474,7 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   const bool converged = solve.iterate();
   MprgpStats stats = solve.stats;
 
-  // the answer, and its residual measured as MPRGP measures it (through the operator), in
-  // z_trial so that a fallback starts from v as given
-  fallback.prepare(n, static_cast<int>(v.size()));
-  op.toVelocity(x, fallback.z);
-  VectorX &z = fallback.z, &v_x = fallback.z_trial;
-  const std::vector<int>* dofs = op.dofs();
-  if (dofs != nullptr)
-    for (int k : *dofs) v_x[k] = v[k] + z[k];
-  else
-    v_x = v + z;
-  op.toGradient(v_x, true, ws.g);
-  stats.products += 2;
-  stats.residual = naturalResidual(set, x, ws.g);
-  stats.converged = converged && stats.residual <= settings.tolerance;
-  if (stats.converged) {
-    if (dofs != nullptr)
-      for (int k : *dofs) v[k] = v_x[k];
-    else
-      v = v_x;
-    return stats;
-  }
+  if (acceptDirectAnswer(op, set, settings, x, converged, v, ws.g, fallback, stats)) return stats;
 
   // MPRGP from the warm start, as if the Newton steps had not been taken: where they fail, the
   // program may have no solution (a jammed packing pushed by a driven body), and their best

@@ -76,6 +76,22 @@ struct ProjectedNewtonWorkspace {
   int factorThreads() const;
 };
 
+// A = J^T K from ws.J and ws.K (lower triangle in a_begin / a_row / a_value, the whole matrix by
+// rows in full_*), for the direct solvers (this one and interior_point.hpp)
+void formDelassus(ProjectedNewtonWorkspace& ws, int n, int velocities);
+// y = A x + ws.b from the formed A, on threads, the same bits for every count
+void delassusGradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
+                      std::vector<double>& y, int threads);
+
+// A direct solver's answer x (a candidate when it met the tolerance in its own measure),
+// checked as MPRGP checks one: the velocity v0 + M^-1 H E x and the natural-map residual
+// through the operator (g: scratch), into stats (2 products). Returns whether it meets the
+// tolerance; only then does v take that velocity.
+bool acceptDirectAnswer(const QpOperator& op, const SeparableSet& set,
+                        const MprgpSettings& settings, const std::vector<double>& x, bool candidate,
+                        VectorX& v, std::vector<double>& g, MprgpWorkspace& fallback,
+                        MprgpStats& stats);
+
 // Whether solveProjectedNewton takes this program: every block a box, and the operator's
 // columns available.
 bool projectedNewtonApplies(const SeparableSet& set);

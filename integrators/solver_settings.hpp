@@ -48,11 +48,12 @@ struct EnumNames<NlgsAcceleration> {
 // discs. Auto, the default: Newton on 2D problems, MPRGP on 3D ones, the faster of the two on
 // the funnel, the powder bed and the slider-crank (docs/schemes.md, "Convex stage solvers").
 // Scheme A's coupled Coulomb problem is not convex and takes NLGS only.
-enum class StageSolver { Nlgs, Mprgp, Newton, Auto };
+enum class StageSolver { Nlgs, Mprgp, Newton, InteriorPoint, Auto };
 template <>
 struct EnumNames<StageSolver> {
   static constexpr EnumName<StageSolver> table[] = {{StageSolver::Auto, "auto"},
                                                     {StageSolver::Newton, "newton"},
+                                                    {StageSolver::InteriorPoint, "interior-point"},
                                                     {StageSolver::Mprgp, "mprgp"},
                                                     {StageSolver::Nlgs, "nlgs"}};
 };

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "framework/data.hpp"
+#include "integrators/interior_point.hpp"
 #include "integrators/mprgp.hpp"
 #include "integrators/projected_newton.hpp"
 
@@ -51,6 +52,7 @@ struct SolverWorkspace {
     MprgpWorkspace mprgp;
     // one per program, so that a pattern that holds from step to step keeps its analysis
     ProjectedNewtonWorkspace newton_normal, newton_projection, newton_friction;
+    InteriorPointWorkspace interior_point;
     SeparableSet set;
     std::vector<double> x;
     std::vector<int> normal_var, tangent_var, rolling_var;

@@ -52,6 +52,8 @@ struct SchemeSettings {
   // against 704 for the body-form rows, equal to them up to round-off. Scheme A's sweeps read
   // them directly; scheme B's friction stage reads them through the generic path and has a
   // packed path for body-form rows only. Unset (auto): compact for scheme A, body form for B.
+  // The two row-storage choices are benchmark hooks (`sweep run --row-storage`, tests), not
+  // scene keys: a scene's results do not depend on them.
   std::optional<bool> compact_sphere_rows;
   // false (an ablation): every solver reads every row from ContactProblem's generic arrays, no
   // packed 2D / 3D rows, body form or compact sphere rows; the results agree to round-off (2D:

@@ -36,13 +36,13 @@ for scheme in moreau-jean catching-up; do
 done
 run funnel-nncg examples/funnel/funnel.yaml --scheme moreau-jean \
   --set scheme.coulomb.acceleration=nncg
-run funnel-unpacked examples/funnel/funnel.yaml --scheme moreau-jean --set scheme.packed_rows=false
+run funnel-unpacked examples/funnel/funnel.yaml --scheme moreau-jean --row-storage generic
 run funnel-relaxed examples/funnel/funnel.yaml --scheme moreau-jean \
   --set scheme.coulomb.relaxation=0.8
 run powder-nncg examples/powder_bed/powder_bed_reduced.yaml --scheme moreau-jean --t-end 0.004 \
   --set scheme.coulomb.acceleration=nncg --set scheme.coulomb.local_solver=enumeration
 run powder-bodyform examples/powder_bed/powder_bed_reduced.yaml --scheme moreau-jean \
-  --t-end 0.004 --set scheme.compact_sphere_rows=false
+  --t-end 0.004 --row-storage body-form
 for solver in nlgs mprgp newton; do
   run "funnel-stages-$solver" examples/funnel/funnel.yaml --scheme catching-up \
     --set "scheme.normal_stage.solver=$solver" --set "scheme.friction_stage.solver=$solver"
@@ -68,7 +68,7 @@ run funnel-nncg-stages examples/funnel/funnel.yaml --scheme catching-up \
   --set scheme.normal_stage.solver=nlgs --set scheme.friction_stage.solver=nlgs \
   --set scheme.normal_stage.acceleration=nncg --set scheme.friction_stage.acceleration=nncg
 run funnel-unpacked-stages examples/funnel/funnel.yaml --scheme catching-up \
-  --set scheme.packed_rows=false --set scheme.normal_stage.solver=nlgs \
+  --row-storage generic --set scheme.normal_stage.solver=nlgs \
   --set scheme.friction_stage.solver=nlgs
 # rolling resistance: 2D rows (entry form), 3D rows in every form
 for scheme in moreau-jean catching-up; do
@@ -85,9 +85,9 @@ for solver in nlgs mprgp; do
     --set "scheme.friction_stage.solver=$solver"
 done
 run powder-rolling-bodyform examples/powder_bed/powder_bed_reduced.yaml --scheme moreau-jean \
-  --t-end 0.012 --set generators[0].rolling_resistance=0.1 --set scheme.compact_sphere_rows=false
+  --t-end 0.012 --set generators[0].rolling_resistance=0.1 --row-storage body-form
 run powder-rolling-unpacked examples/powder_bed/powder_bed_reduced.yaml --scheme moreau-jean \
-  --t-end 0.012 --set generators[0].rolling_resistance=0.1 --set scheme.packed_rows=false
+  --t-end 0.012 --set generators[0].rolling_resistance=0.1 --row-storage generic
 run powder-rolling-spheres examples/powder_bed/powder_bed_reduced.yaml --scheme moreau-jean \
   --t-end 0.012 --set generators[0].rolling_resistance=0.1
 for solver in nlgs mprgp; do

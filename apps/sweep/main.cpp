@@ -59,6 +59,9 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
                                 : s.coulomb.acceleration == sweep::NlgsAcceleration::Nncg;
   if (nncg) out << ", NNCG sweeps";
   out << ", threads " << s.threadCount();
+  if (!s.packed_rows) out << ", generic rows";
+  if (s.compact_sphere_rows)
+    out << (*s.compact_sphere_rows ? ", compact sphere rows" : ", body-form sphere rows");
   out << "\n";
 }
 
@@ -117,6 +120,14 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet", quiet, "no progress");
   int threads = -1;
   run->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
+  // the row storages are a benchmark's ablation, not a scene's: every choice gives the same
+  // results up to round-off (docs/architecture.md, "Contact rows in two forms")
+  std::string row_storage = "auto";
+  const auto row_storages = CLI::IsMember({"auto", "generic", "body-form", "compact"});
+  run->add_option("--row-storage", row_storage,
+                  "contact rows for benchmarks: auto, generic (no packed rows), body-form or "
+                  "compact (3D spheres' rows); the same results up to round-off")
+      ->check(row_storages);
   std::string initial_state;
   run->add_option("--initial-state", initial_state,
                   "start from a final_state.csv of an earlier run of this scene (its t, q, v)");
@@ -137,6 +148,7 @@ int main(int argc, char** argv) {
   bench->add_flag("--no-plots", bench_options.no_plots, "write bench.csv only");
   bench->add_flag("--quiet", quiet, "no progress");
   bench->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
+  bench->add_option("--row-storage", row_storage, "as run's --row-storage")->check(row_storages);
 
   CLI::App* check = app.add_subcommand("check", "validate a scene and describe it");
   addSceneOptions(check);
@@ -189,6 +201,9 @@ int main(int argc, char** argv) {
                                 std::to_string(threads));
       file.run.scheme.threads = threads;
     }
+    if (row_storage == "generic") file.run.scheme.packed_rows = false;
+    if (row_storage == "body-form") file.run.scheme.compact_sphere_rows = false;
+    if (row_storage == "compact") file.run.scheme.compact_sphere_rows = true;
     if (run->parsed() && run->count("--dt") > 0) {
       if (!(dt > 0.0) || !std::isfinite(dt))
         throw sweep::InputError("--dt: must be > 0, got " + sweep::exactNumber(dt));

@@ -697,8 +697,7 @@ class SceneParser {
   void parseScheme(const YamlField& f) {
     f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates",
                  "open_contacts", "coulomb", "normal_stage", "friction_stage", "screening",
-                 "screening_rounds", "screening_gap", "compact_sphere_rows", "packed_rows",
-                 "threads"});
+                 "screening_rounds", "screening_gap", "threads"});
     SchemeSettings& s = out_.run.scheme;
     if (f.has("name")) s.scheme = f.choice("name", s.scheme);
     s.normal_law = f.choice("normal_law", NormalLaw::Vel);
@@ -713,18 +712,6 @@ class SceneParser {
     if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
     s.screening_rounds = static_cast<int>(rounds);
     if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
-    if (f.has("compact_sphere_rows")) {
-      // auto (the default): compact for scheme A, body form for B (time_stepper.hpp)
-      const YamlField field = f["compact_sphere_rows"];
-      const std::optional<bool> flag = field.asBoolean();
-      if (flag)
-        s.compact_sphere_rows = flag;
-      else if (field.isScalar() && field.text() == "auto")
-        s.compact_sphere_rows.reset();
-      else
-        field.fail("must be auto, true or false");
-    }
-    s.packed_rows = f.boolean("packed_rows", s.packed_rows);
     const long threads = f.integer("threads", s.threads);
     if (threads < 0 || threads > 1024) f["threads"].fail("must be in [0, 1024] (0: every core)");
     s.threads = static_cast<int>(threads);
@@ -1086,12 +1073,6 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "screening" << YAML::Value << s.screening;
   out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
   if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
-  out << YAML::Key << "compact_sphere_rows";
-  if (s.compact_sphere_rows)
-    out << YAML::Value << *s.compact_sphere_rows;
-  else
-    out << YAML::Value << "auto";
-  out << YAML::Key << "packed_rows" << YAML::Value << s.packed_rows;
   out << YAML::Key << "threads" << YAML::Value << s.threads;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"

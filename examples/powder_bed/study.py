@@ -77,14 +77,14 @@ VARIANTS = {
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                    "scheme.coulomb.residual_check_interval=5", "scheme.coulomb.relaxation=0.9",
-                   "detection.margin_rule=relative", "scheme.compact_sphere_rows=false"]),
-    # and with the contacts of free spheres in compact rows (scheme.compact_sphere_rows)
+                   "detection.margin_rule=relative", "--row-storage=body-form"]),
+    # and with the contacts of free spheres in compact rows (--row-storage compact)
     "fast5-compact": ("the same, compact sphere rows",
                       ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                        "scheme.coulomb.tolerance=1e-2", "detection.speed_factor=1.25",
                        "scheme.coulomb.residual_check_interval=5",
                        "scheme.coulomb.relaxation=0.9", "detection.margin_rule=relative",
-                       "scheme.compact_sphere_rows=true"]),
+                       "--row-storage=compact"]),
     "fast-3e-2": ("the same at tolerance 3e-2",
                   ["scheme.normal_law=iqs", "time.step=1e-4", "scheme.screening=true",
                    "scheme.coulomb.tolerance=3e-2", "detection.speed_factor=1.25"]),
@@ -142,7 +142,8 @@ def run(args, variant, seed):
         command = [args.sweep, "run", args.scene, "--out", run_dir, "--quiet",
                    "--set", f"generators[0].seed={seed}"]
         for override in VARIANTS[variant][1]:
-            command += ["--set", override]
+            # a leading "--" is a command-line option (--row-storage), the rest scene fields
+            command += override.split("=", 1) if override.startswith("--") else ["--set", override]
         command += args.extra
         print(" ".join(command), flush=True)
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL)

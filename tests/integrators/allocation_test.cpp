@@ -116,7 +116,8 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
     const ContactProblem& problem = pile.step.problem;
     const int n = problem.size();
     ASSERT_GT(n, 50);
-    for (StageSolver solver : {StageSolver::Mprgp, StageSolver::Newton}) {
+    for (StageSolver solver :
+         {StageSolver::Mprgp, StageSolver::Newton, StageSolver::InteriorPoint}) {
       SolverWorkspace ws;
       ws.prepare(n, pile.scene.model.nv);
       SolverSettings settings;
