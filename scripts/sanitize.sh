@@ -15,7 +15,7 @@ cd "$(dirname "$0")/.."
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DSWEEP_SANITIZE=address,undefined \
   -DSWEEP_BUILD_BENCHMARKS=OFF -DSWEEP_BUILD_EXAMPLES=OFF -DSWEEP_BUILD_PYTHON=OFF \
-  -DSWEEP_WERROR=ON >/dev/null
+  -DSWEEP_BUILD_STUDY_TESTS=OFF -DSWEEP_WERROR=ON >/dev/null
 cmake --build build-asan -j "$(nproc)"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
