@@ -6,7 +6,7 @@
 # ThreadSanitizer can only see a race where two threads run, and Sweep's loops go parallel
 # only from kParallelItems items on (framework/parallel.hpp): the other tests run on one
 # thread and would only be slower here. These are the ones that drive the threaded code
-# (docs/robustness.md, "Sanitizers"): app.threads (every threaded loop of a step: coloured
+# (docs/robustness.md, "Sanitizers"): app.threads.* (every threaded loop of a step: coloured
 # sweeps, detection, screening, body trees, the assembly), detection, the coloured sweeps, the
 # Newton solver's split factorization and two solves at once. Only their executables and the
 # sweep command are built. The normal suite runs every test.
@@ -31,5 +31,5 @@ export OPENBLAS_NUM_THREADS=1
 # the threads test compares 2 and 4 threads here: a race needs two, and the 1-thread runs, as
 # costly under ThreadSanitizer, are compared in the normal suite
 export SWEEP_TEST_THREAD_COUNTS=2,4
-threaded='^app\.threads$|Thread|TwoSolvesAtOnce|ColouredSweeps|LargeProgramsOfAnyGraphShape'
+threaded='^app\.threads\.|Thread|TwoSolvesAtOnce|ColouredSweeps|LargeProgramsOfAnyGraphShape'
 ctest --test-dir build-tsan --output-on-failure -j "$(nproc)" -R "$threaded" -LE long

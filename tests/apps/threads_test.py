@@ -4,7 +4,8 @@ final_state.csv and stats.csv (timing columns aside), bit for bit, on the funnel
 and a URDF scene, for both schemes. The coloured sweeps are forced on every island of more
 than 16 rows (scheme.coulomb.parallel_rows), and the funnel and the powder reach more than one
 block of them (128 rows), so that small scenes exercise the threads.
-Usage: threads_test.py SWEEP SOURCE_DIR"""
+Usage: threads_test.py SWEEP SOURCE_DIR [CASE] (ctest runs each case as its own test,
+app.threads.CASE, so that two run at once)"""
 import csv
 import hashlib
 import json
@@ -17,6 +18,7 @@ from scratch import scratch_dir
 
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
 SOURCE = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "."
+ONLY = sys.argv[3] if len(sys.argv) > 3 else None
 TIMINGS = {"t_detect", "t_assemble", "t_solve", "t_update"}
 # the thread counts compared, the first the reference: ThreadSanitizer's suite compares 2 and 4
 # only (scripts/tsan.sh), as a race needs two threads and one thread's run there costs as much
@@ -78,7 +80,11 @@ def run(out, scene, scheme, threads, extra):
 class SameBitsForEveryThreadCount(unittest.TestCase):
     def test_cases(self):
         scratch = scratch_dir(self, "sweep_threads_")
+        if ONLY is not None and ONLY not in CASES:
+            self.fail(f"no case {ONLY}; cases: {', '.join(CASES)}")
         for name, (scene, extra, rows) in CASES.items():
+            if ONLY is not None and name != ONLY:
+                continue
             for scheme in ("moreau-jean", "catching-up"):
                 with self.subTest(case=name, scheme=scheme):
                     results = {}
