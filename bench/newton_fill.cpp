@@ -15,6 +15,7 @@
 #include <cholmod.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@ namespace {
 struct Fill {
   long n = 0, entries = 0;
   double factor_entries = 0.0, flops = 0.0;
+  double simplicial_seconds = 0.0, supernodal_seconds = 0.0;
 };
 
 // the lower triangle's pattern (columns of sorted, unique rows, the diagonal included)
@@ -45,8 +47,30 @@ Fill analyze(int n, const std::vector<std::vector<int>>& lower) {
     p[j + 1] = p[j] + static_cast<int>(lower[j].size());
   }
   cholmod_factor* factor = cholmod_analyze(a, &common);
-  Fill fill{n, entries, common.lnz, common.fl};
+  Fill fill{n, entries, common.lnz, common.fl, 0.0, 0.0};
   cholmod_free_factor(&factor, &common);
+  // the numeric factorizations' times, on values that make the matrix positive definite
+  cholmod_sparse* pattern = a;
+  a = cholmod_allocate_sparse(n, n, entries, 1, 1, -1, CHOLMOD_REAL, &common);
+  std::copy(p, p + n + 1, static_cast<int*>(a->p));
+  std::copy(i, i + entries, static_cast<int*>(a->i));
+  cholmod_free_sparse(&pattern, &common);
+  double* x = static_cast<double*>(a->x);
+  for (int j = 0; j < n; ++j)
+    for (int e = static_cast<int*>(a->p)[j]; e < static_cast<int*>(a->p)[j + 1]; ++e)
+      x[e] = static_cast<int*>(a->i)[e] == j ? 1e4 : -0.5;
+  for (int kind : {CHOLMOD_SIMPLICIAL, CHOLMOD_SUPERNODAL}) {
+    common.supernodal = kind;
+    common.final_ll = kind == CHOLMOD_SUPERNODAL;
+    cholmod_factor* numeric = cholmod_analyze(a, &common);
+    const auto start = std::chrono::steady_clock::now();
+    cholmod_factorize(a, numeric, &common);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    (kind == CHOLMOD_SIMPLICIAL ? fill.simplicial_seconds : fill.supernodal_seconds) = seconds;
+    if (common.status != CHOLMOD_OK) std::fprintf(stderr, "factorization failed\n");
+    cholmod_free_factor(&numeric, &common);
+  }
   cholmod_free_sparse(&a, &common);
   cholmod_finish(&common);
   return fill;
@@ -65,8 +89,11 @@ void tidy(std::vector<std::vector<int>>& lower) {
 }
 
 void print(const char* form, const Fill& fill) {
-  std::printf("%-28s n %8ld  entries %10ld  factor entries %12.0f  flops %10.3e\n", form, fill.n,
-              fill.entries, fill.factor_entries, fill.flops);
+  std::printf(
+      "%-28s n %8ld  entries %10ld  factor entries %12.0f  flops %10.3e  simplicial %.4f s  "
+      "supernodal %.4f s\n",
+      form, fill.n, fill.entries, fill.factor_entries, fill.flops, fill.simplicial_seconds,
+      fill.supernodal_seconds);
 }
 
 }  // namespace
@@ -85,18 +112,15 @@ int main(int argc, char** argv) {
   stepper.step();  // the contacts of this step's detection are the ones analysed
 
   const sweep::Model& model = scene.model;
-  const sweep::ContactJacobian& jacobian = stepper.data().contact_data.jacobian;
-  const int contacts = jacobian.size(), nv = model.nv;
-  // the component of each velocity
-  std::vector<int> component_of(nv, -1);
-  for (std::size_t k = 0; k < model.components.size(); ++k)
-    for (int i = 0; i < model.components[k].nv; ++i)
-      component_of[model.components[k].v_index + i] = static_cast<int>(k);
-  // the components each contact moves, and the contacts that move each component
+  const std::vector<sweep::Contact>& found = stepper.data().contact_data.contacts;
+  const int contacts = static_cast<int>(found.size()), nv = model.nv;
+  // the components each contact moves (all of a body's tree: a superset of its Jacobian's
+  // velocities where a tree has branches, exact for free bodies), and the contacts that move
+  // each component
   std::vector<std::vector<int>> moves(contacts), moved_by(model.components.size());
   for (int c = 0; c < contacts; ++c) {
-    for (int e = jacobian.begin[c]; e < jacobian.begin[c + 1]; ++e)
-      moves[c].push_back(component_of[jacobian.dof[e]]);
+    for (const sweep::BodyRef& body : {found[c].body_a, found[c].body_b})
+      if (body.hasDofs()) moves[c].push_back(model.bodies[body.index].component);
     std::sort(moves[c].begin(), moves[c].end());
     moves[c].erase(std::unique(moves[c].begin(), moves[c].end()), moves[c].end());
     for (int k : moves[c]) moved_by[k].push_back(c);
@@ -123,9 +147,12 @@ int main(int argc, char** argv) {
     for (int i = 0; i < component.nv; ++i)
       for (int j = 0; j <= i; ++j) addPair(lower, component.v_index + i, component.v_index + j);
   for (int c = 0; c < contacts; ++c)
-    for (int e = jacobian.begin[c]; e < jacobian.begin[c + 1]; ++e)
-      for (int f = jacobian.begin[c]; f < jacobian.begin[c + 1]; ++f)
-        addPair(lower, jacobian.dof[e], jacobian.dof[f]);
+    for (int k : moves[c])
+      for (int l : moves[c]) {
+        const sweep::Component &first = model.components[k], &second = model.components[l];
+        for (int i = 0; i < first.nv; ++i)
+          for (int j = 0; j < second.nv; ++j) addPair(lower, first.v_index + i, second.v_index + j);
+      }
   tidy(lower);
   print("body space", analyze(nv, lower));
   return 0;
