@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
   run->add_option("--t-end", t_end, "end time (s)");
   run->add_option("--out", out_dir, "output folder")->default_val("results");
   run->add_flag("--quiet", quiet, "no progress");
-  int threads = -1;
+  int threads = 0;
   run->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
   // the row storages are a benchmark's ablation, not a scene's: every choice gives the same
   // results up to round-off (docs/architecture.md, "Contact rows in two forms")
@@ -195,7 +195,10 @@ int main(int argc, char** argv) {
     }
     sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
     if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
-    if (threads != -1) {
+    // given at all, whatever its value: -1 is refused like any other negative count
+    const bool threads_given = (run->parsed() && run->count("--threads") > 0) ||
+                               (bench->parsed() && bench->count("--threads") > 0);
+    if (threads_given) {
       if (threads < 0 || threads > 1024)
         throw sweep::InputError("--threads: must be in [0, 1024] (0: every core), got " +
                                 std::to_string(threads));

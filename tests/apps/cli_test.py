@@ -153,6 +153,14 @@ class Inputs(unittest.TestCase):
         r = sweep("run", "small_box.yaml", "--set", "time.stepp=1")
         self.assertEqual(r.returncode, 2)
         self.assertIn("time.stepp: unknown key", r.stderr)
+        # every negative count is refused, -1 too (once the "not given" mark)
+        for command in (["run"], ["bench", "--dt", "1e-3"]):
+            for count in ("-1", "-2", "1025"):
+                r = sweep(command[0], "small_box.yaml", *command[1:], "--threads", count,
+                          "--quiet")
+                self.assertEqual(r.returncode, 2, (command, count, r.stderr))
+                self.assertIn(f"--threads: must be in [0, 1024] (0: every core), got {count}",
+                              r.stderr)
 
     def test_set_and_options_override_the_scene(self):
         out = scratch_dir(self, "sweep_set_")
