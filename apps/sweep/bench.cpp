@@ -51,6 +51,14 @@ int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& opti
       throw InputError(file.path + ": --dt " + exactNumber(h) + ": " + e.what());
     }
   }
+  // each point has its own folder (runs/SCHEME_dtSTEP) and row: two steps that name the same
+  // folder would overwrite each other's run
+  for (std::size_t i = 0; i < options.steps.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (shortNumber(options.steps[i]) == shortNumber(options.steps[j]))
+        throw InputError("--dt: " + exactNumber(options.steps[j]) + " and " +
+                         exactNumber(options.steps[i]) + " are the same point (runs/*_dt" +
+                         shortNumber(options.steps[i]) + "); give each step once");
   if (options.repeat < 1) throw InputError("--repeat: must be >= 1");
   std::vector<Scheme> schemes;
   for (const std::string& name : options.schemes) schemes.push_back(schemeFromName(name));

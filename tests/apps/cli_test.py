@@ -539,6 +539,17 @@ class Bench(unittest.TestCase):
             self.assertGreater(os.path.getsize(path), 1000)
         self.assertEqual(leftovers(out), [])
 
+    def test_a_step_given_twice_is_refused_before_any_run(self):
+        # the same value twice, or two values that name the same point's folder
+        for steps, first, second in [("1e-3,2e-4,1e-3", "0.001", "0.001"),
+                                     ("1e-3,0.0010000001", "0.001", "0.0010000001")]:
+            out = scratch_dir(self, "sweep_bench_")
+            r = sweep("bench", "small_box.yaml", "--dt", steps, "--out", out, "--quiet")
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(f"--dt: {first} and {second} are the same point (runs/*_dt0.001); "
+                          "give each step once", r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(out, "runs")))
+
 
 if __name__ == "__main__":
     unittest.main(argv=[sys.argv[0], "-v"])
