@@ -262,6 +262,20 @@ class FirstMark : public YAML::EventHandler {
   }
 };
 
+// Whether the text holds a second YAML document after its first, and where it starts. Load
+// reads the first document and ignores the rest; the parser is asked once for a second:
+// YAML::LoadAll would loop forever, allocating, on some malformed texts (found by the scene
+// fuzzer), because the parser then reports empty documents without end.
+bool secondDocument(const std::string& text, YAML::Mark& at) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  FirstMark first, second;
+  parser.HandleNextDocument(first);
+  if (!parser.HandleNextDocument(second)) return false;
+  at = second.first;
+  return true;
+}
+
 }  // namespace
 
 YAML::Node parseYamlText(const std::string& text, const std::string& path) {
@@ -272,15 +286,9 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
-    // Load reads the first document and ignores the rest. The parser is asked once for a
-    // second: YAML::LoadAll would loop forever, allocating, on some malformed texts (found by
-    // the scene fuzzer), because the parser then reports empty documents without end.
-    std::istringstream in(text);
-    YAML::Parser parser(in);
-    FirstMark first, second;
-    parser.HandleNextDocument(first);
-    if (parser.HandleNextDocument(second))
-      throw syntaxError(second.first,
+    YAML::Mark second;
+    if (secondDocument(text, second))
+      throw syntaxError(second,
                         "a second YAML document, or text outside the first, starts here; the "
                         "file must hold one document");
   } catch (const YAML::DeepRecursion& e) {
@@ -318,7 +326,14 @@ FieldOverride parseOverride(const std::string& assignment) {
   result.path = assignment.substr(0, equals);
   result.origin = "--set " + assignment;
   try {
-    result.value = YAML::Load(assignment.substr(equals + 1));
+    const std::string value = assignment.substr(equals + 1);
+    result.value = YAML::Load(value);
+    YAML::Mark second;
+    if (secondDocument(value, second))
+      throw InputError("--set " + assignment +
+                       ": a second YAML document, or text outside the first, starts at "
+                       "character " +
+                       std::to_string(second.pos + 1) + " of the value; a value is one document");
   } catch (const YAML::Exception& e) {
     throw InputError("--set " + assignment + ": the value is not YAML: " + e.msg);
   }

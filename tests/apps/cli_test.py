@@ -153,6 +153,12 @@ class Inputs(unittest.TestCase):
         r = sweep("run", "small_box.yaml", "--set", "time.stepp=1")
         self.assertEqual(r.returncode, 2)
         self.assertIn("time.stepp: unknown key", r.stderr)
+        # a value is one YAML document: a second one is refused, not dropped
+        r = sweep("run", "small_box.yaml", "--set", "time.end=0.01\n---\n5", "--quiet")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("--set time.end=0.01\n---\n5: a second YAML document, or text outside "
+                      "the first, starts at character 6 of the value; a value is one document",
+                      r.stderr)
         # every negative count is refused, -1 too (once the "not given" mark)
         for command in (["run"], ["bench", "--dt", "1e-3"]):
             for count in ("-1", "-2", "1025"):
