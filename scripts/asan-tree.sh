@@ -2,8 +2,9 @@
 # Configures ./build-asan, the one tree of the AddressSanitizer + UndefinedBehaviorSanitizer
 # suite (scripts/sanitize.sh) and of the fuzzers (scripts/fuzz.sh), and builds the given
 # targets in it (default: all). clang 14: it compiles an instrumented file in half the time GCC
-# takes, and libFuzzer is clang's. Every target also carries libFuzzer's coverage
-# instrumentation (SWEEP_FUZZ), so that the fuzzers and the tests share one build.
+# takes, and libFuzzer is clang's. Sweep's libraries also carry libFuzzer's coverage
+# instrumentation (SWEEP_FUZZ; CMakeLists.txt says how much where), so that the fuzzers and the
+# tests share one build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 "./scripts/install-deps.sh" --clang
