@@ -409,7 +409,7 @@ MprgpStats solveInteriorPoint(const QpOperator& op, const SeparableSet& set,
     return solveSeparableQp(op, set, settings, x, v, fallback);
   newton.b.resize(n);
   op.toGradient(v, true, newton.b);  // b: the gradient at x = 0
-  formDelassus(newton, n, static_cast<int>(v.size()));
+  formDelassus(newton, set, static_cast<int>(v.size()));
   if (!newton.cholesky) newton.cholesky = std::make_unique<SparseCholesky>();
   newton.factor_value.resize(newton.a_value.size());
   InteriorPointSolve solve(set, settings, x, newton, ws);

@@ -25,7 +25,7 @@ constexpr double kRegularization = 1e-4;
 constexpr double kBindingMargin = 1e-3;
 constexpr double kArmijo = 1e-4;
 constexpr int kMaxHalvings = 40;
-constexpr char kFree = 0, kLower = 1, kUpper = 2;
+constexpr char kFree = 0, kLower = 1, kUpper = 2, kSlide = 3;
 
 }  // namespace
 
@@ -39,14 +39,24 @@ int ProjectedNewtonWorkspace::factorThreads() const {
 }
 
 bool projectedNewtonApplies(const SeparableSet& set) {
-  for (int b = 0; b < set.blocks(); ++b)
-    if (set.size[b] != 1 && effectiveSet(set, b) != BlockSet::Fixed) return false;
+  for (int b = 0; b < set.blocks(); ++b) {
+    if (set.size[b] == 1) continue;
+    const BlockSet kind = effectiveSet(set, b);
+    if (set.size[b] != 2 || (kind != BlockSet::Fixed && kind != BlockSet::Ball)) return false;
+  }
   return true;
 }
 
 // A = J^T K, lower triangle: Gustavson's product over J by velocity.
-void formDelassus(ProjectedNewtonWorkspace& ws, int n, int velocities) {
+void formDelassus(ProjectedNewtonWorkspace& ws, const SeparableSet& set, int velocities) {
+  const int n = set.variables;
   const SparseColumns &J = ws.J, &K = ws.K;
+  ws.partner.assign(n, -1);
+  for (int b = 0; b < set.blocks(); ++b)
+    if (set.size[b] == 2) {
+      ws.partner[set.first[b]] = set.first[b] + 1;
+      ws.partner[set.first[b] + 1] = set.first[b];
+    }
   // J by velocity (a counting sort of its entries)
   ws.by_dof_begin.assign(velocities + 1, 0);
   for (int r : J.row) ++ws.by_dof_begin[r + 1];
@@ -69,21 +79,32 @@ void formDelassus(ProjectedNewtonWorkspace& ws, int n, int velocities) {
   ws.a_value.clear();
   for (int j = 0; j < n; ++j) {
     ws.touched.clear();
-    ws.marker[j] = j;  // the diagonal always, so that every column has a pivot
-    ws.touched.push_back(j);
+    const auto touch = [&](int i) {
+      if (i >= j && ws.marker[i] != j) {
+        ws.marker[i] = j;
+        ws.touched.push_back(i);
+      }
+    };
+    touch(j);  // the diagonal always, so that every column has a pivot
     for (int e = K.begin[j]; e < K.begin[j + 1]; ++e) {
       const int k = K.row[e];
       const double kv = K.value[e];
       for (int s = ws.by_dof_begin[k]; s < ws.by_dof_begin[k + 1]; ++s) {
         const int i = ws.by_dof_variable[s];
         if (i < j) continue;
-        if (ws.marker[i] != j) {
-          ws.marker[i] = j;
-          ws.touched.push_back(i);
-        }
+        touch(i);
         ws.accumulator[i] += ws.by_dof_value[s] * kv;
       }
     }
+    // the disc's other column's rows, and the partners of all rows: whole 2 x 2 couplings
+    if (ws.partner[j] >= 0) {
+      const int pj = ws.partner[j];
+      for (int e = K.begin[pj]; e < K.begin[pj + 1]; ++e)
+        for (int s = ws.by_dof_begin[K.row[e]]; s < ws.by_dof_begin[K.row[e] + 1]; ++s)
+          touch(ws.by_dof_variable[s]);
+    }
+    for (std::size_t t = 0, rows = ws.touched.size(); t < rows; ++t)
+      if (ws.partner[ws.touched[t]] >= 0) touch(ws.partner[ws.touched[t]]);
     std::sort(ws.touched.begin(), ws.touched.end());
     for (int i : ws.touched) {
       ws.a_row.push_back(i);
@@ -158,7 +179,14 @@ void markBinding(const SeparableSet& set, const std::vector<double>& x,
         break;
       case BlockSet::Ball: {
         const double r = set.radius[b];
-        binding[i] = (x[i] >= r - eps && g[i] < 0.0) || (x[i] <= -r + eps && g[i] > 0.0);
+        if (set.size[b] == 1) {
+          binding[i] = (x[i] >= r - eps && g[i] < 0.0) || (x[i] <= -r + eps && g[i] > 0.0);
+          break;
+        }
+        // a disc binds whole: on its circle, the gradient pointing out of it
+        const bool out =
+            std::hypot(x[i], x[i + 1]) >= r - eps && x[i] * g[i] + x[i + 1] * g[i + 1] < 0.0;
+        binding[i] = binding[i + 1] = out;
         break;
       }
     }
@@ -211,16 +239,81 @@ void boundsOf(const SeparableSet& set, int b, double& low, double& high) {
   }
 }
 
-// the reduced matrix: A + rho I on the free variables, the identity on the others
-void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>& fixed,
+// the first variable of i's block and i's place in it
+int blockFirst(const ProjectedNewtonWorkspace& ws, int i) {
+  return ws.partner[i] >= 0 && ws.partner[i] < i ? ws.partner[i] : i;
+}
+
+// ws.block_entry: for each lower-triangle entry (i, j), the positions of A(first_i + a,
+// first_j + c), a and c over the two blocks' variables (binary searches in the sorted columns)
+void blockEntries(ProjectedNewtonWorkspace& ws, int n) {
+  const auto position = [&](int row, int column) {
+    if (row < column) std::swap(row, column);
+    const auto begin = ws.a_row.begin() + ws.a_begin[column];
+    const auto end = ws.a_row.begin() + ws.a_begin[column + 1];
+    const auto it = std::lower_bound(begin, end, row);
+    return it != end && *it == row ? static_cast<int>(it - ws.a_row.begin()) : -1;
+  };
+  ws.block_entry.assign(4 * ws.a_row.size(), -1);
+  for (int j = 0; j < n; ++j) {
+    const int fj = blockFirst(ws, j), sj = ws.partner[j] >= 0 ? 2 : 1;
+    for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
+      const int i = ws.a_row[e];
+      const int fi = blockFirst(ws, i), si = ws.partner[i] >= 0 ? 2 : 1;
+      if (si == 1 && sj == 1) continue;
+      for (int a = 0; a < si; ++a)
+        for (int c = 0; c < sj; ++c) ws.block_entry[4 * e + 2 * a + c] = position(fi + a, fj + c);
+    }
+  }
+}
+
+// variable i's direction in its block's variables: (n, tau)'s column where the block is
+// rotated, the unit vector otherwise
+void directionOf(const ProjectedNewtonWorkspace& ws, int i, double* r) {
+  const int f = blockFirst(ws, i);
+  if (!ws.rotated[i]) {
+    r[0] = i == f ? 1.0 : 0.0;
+    r[1] = i == f ? 0.0 : 1.0;
+  } else if (i == f) {  // n
+    r[0] = ws.frame[f];
+    r[1] = ws.frame[f + 1];
+  } else {  // tau
+    r[0] = -ws.frame[f + 1];
+    r[1] = ws.frame[f];
+  }
+}
+
+// entry (i, j) of R^T A R, R the block rotation of the sliding discs
+double rotatedEntry(const ProjectedNewtonWorkspace& ws, int e, int i, int j) {
+  double ri[2], rj[2];
+  directionOf(ws, i, ri);
+  directionOf(ws, j, rj);
+  const int si = ws.partner[i] >= 0 ? 2 : 1, sj = ws.partner[j] >= 0 ? 2 : 1;
+  double sum = 0.0;
+  for (int a = 0; a < si; ++a)
+    for (int c = 0; c < sj; ++c) {
+      const int at = ws.block_entry[4 * e + 2 * a + c];
+      if (at >= 0) sum += ri[a] * ws.a_value[at] * rj[c];
+    }
+  return sum;
+}
+
+// the reduced matrix: A + rho I on the free variables, the identity on the others; with
+// `rotate`, in the frames of the sliding discs (ws.rotated), the circle's curvature on their
+// tangents
+void reducedMatrix(ProjectedNewtonWorkspace& ws, int n, const std::vector<char>& fixed, bool rotate,
                    int threads) {
   forEachIndex(n, threads, [&](long j) {
     for (int e = ws.a_begin[j]; e < ws.a_begin[j + 1]; ++e) {
       const int i = ws.a_row[e];
-      if (fixed[i] || fixed[j])
+      if (fixed[i] || fixed[j]) {
         ws.factor_value[e] = i == j ? 1.0 : 0.0;
-      else
+      } else if (rotate && (ws.rotated[i] || ws.rotated[j])) {
+        ws.factor_value[e] = rotatedEntry(ws, e, i, static_cast<int>(j)) +
+                             (i == j ? kRegularization + ws.curvature[i] : 0.0);
+      } else {
         ws.factor_value[e] = ws.a_value[e] + (i == j ? kRegularization : 0.0);
+      }
     }
   });
 }
@@ -254,7 +347,12 @@ class NewtonSolve {
     ws_.binding.resize(n);
     op_.toGradient(v, true, ws_.b);  // b: the gradient at x = 0
     stats.products = 1;
-    formDelassus(ws_, n, static_cast<int>(v.size()));
+    formDelassus(ws_, set_, static_cast<int>(v.size()));
+    ws_.rotated.assign(n, 0);
+    ws_.frame.assign(n, 0.0);
+    ws_.curvature.assign(n, 0.0);
+    has_discs_ = std::any_of(ws_.partner.begin(), ws_.partner.end(), [](int p) { return p >= 0; });
+    if (has_discs_) blockEntries(ws_, n);
     if (!ws_.cholesky) ws_.cholesky = std::make_unique<SparseCholesky>();
     ws_.factor_value.resize(ws_.a_value.size());
     usable_ = ws_.cholesky->analyze(n, ws_.a_begin, ws_.a_row, threads_);
@@ -302,20 +400,58 @@ class NewtonSolve {
     each([&](long i) { to[i] = from[i]; });
   }
 
-  // sides from x and its gradient: held at the bound where x - g leaves the box
+  // sides from x and its gradient: held at the bound where x - g leaves the box; a disc slides
+  // where x - g leaves its circle, its unit normal y / |y| then in ws.frame
   void sidesFrom() {
-    each([&](long i) {
-      const double y = x_[i] - ws_.g[i];
-      ws_.side[i] = y <= ws_.lower[i] ? kLower : y >= ws_.upper[i] ? kUpper : kFree;
+    forEachIndex(set_.blocks(), threads_, [&](long b) {
+      const int i = set_.first[b];
+      if (set_.size[b] == 1 || effectiveSet(set_, static_cast<int>(b)) == BlockSet::Fixed) {
+        for (int k = i; k < i + set_.size[b]; ++k) {
+          const double y = x_[k] - ws_.g[k];
+          ws_.side[k] = y <= ws_.lower[k] ? kLower : y >= ws_.upper[k] ? kUpper : kFree;
+        }
+        return;
+      }
+      const double y0 = x_[i] - ws_.g[i], y1 = x_[i + 1] - ws_.g[i + 1];
+      const double norm = std::hypot(y0, y1);
+      const bool slides = norm > set_.radius[b];
+      ws_.side[i] = ws_.side[i + 1] = slides ? kSlide : kFree;
+      if (slides) {
+        ws_.frame[i] = y0 / norm;
+        ws_.frame[i + 1] = y1 / norm;
+      }
     });
   }
-  // factorizes the matrix reduced to the variables not binding and solves for -g there
-  bool newtonDirection() {
-    reducedMatrix(ws_, n_, ws_.binding, threads_);
-    each([&](long i) { ws_.g_trial[i] = ws_.binding[i] ? 0.0 : -ws_.g[i]; });
+  // factorizes the matrix reduced to the variables not binding and solves for -g there, d = 0
+  // on the binding ones; with `rotate`, a sliding disc's tangent is one of those variables, its
+  // normal binding, and d comes back from the frame: d_b = tau u
+  bool newtonDirection(bool rotate) {
+    reducedMatrix(ws_, n_, ws_.binding, rotate, threads_);
+    each([&](long i) {
+      if (ws_.binding[i]) {
+        ws_.g_trial[i] = 0.0;
+      } else if (rotate && ws_.rotated[i]) {
+        double r[2];
+        directionOf(ws_, static_cast<int>(i), r);
+        const int f = blockFirst(ws_, static_cast<int>(i));
+        ws_.g_trial[i] = -(r[0] * ws_.g[f] + r[1] * ws_.g[f + 1]);
+      } else {
+        ws_.g_trial[i] = -ws_.g[i];
+      }
+    });
     ++stats.iterations;
     if (!ws_.cholesky->factorize(ws_.factor_value)) return false;
     ws_.cholesky->solve(ws_.g_trial, ws_.d);
+    each([&](long i) {
+      if (rotate && ws_.rotated[i]) {
+        if (blockFirst(ws_, static_cast<int>(i)) == i) return;  // set by its tangent below
+        const double u = ws_.d[i];
+        ws_.d[i - 1] = -ws_.frame[i] * u;
+        ws_.d[i] = ws_.frame[i - 1] * u;
+      } else if (ws_.binding[i]) {
+        ws_.d[i] = 0.0;
+      }
+    });
     return true;
   }
   void keepIfBest(const std::vector<double>& xp, const std::vector<double>& gp) {
@@ -325,11 +461,19 @@ class NewtonSolve {
       copy(xp, ws_.x_best);
     }
   }
-  // squared natural map |x - clamp(x - g)|^2, defined at infeasible x too
+  // squared natural map |x - P(x - g)|^2, defined at infeasible x too; summed by blocks (in
+  // chunks: the same bits for every thread count)
   double merit(const std::vector<double>& xp, const std::vector<double>& gp) {
-    return sum([&](long i, double& part) {
-      const double r = xp[i] - std::clamp(xp[i] - gp[i], ws_.lower[i], ws_.upper[i]);
-      part += r * r;
+    return sumInChunks(set_.blocks(), threads_, ws_.sum_parts, [&](long b, double& part) {
+      const int i = set_.first[b];
+      if (set_.size[b] == 1) {
+        const double r = xp[i] - std::clamp(xp[i] - gp[i], ws_.lower[i], ws_.upper[i]);
+        part += r * r;
+        return;
+      }
+      double y[2] = {xp[i] - gp[i], xp[i + 1] - gp[i + 1]};
+      projectBlock(set_, static_cast<int>(b), y);
+      part += (xp[i] - y[0]) * (xp[i] - y[0]) + (xp[i + 1] - y[1]) * (xp[i + 1] - y[1]);
     });
   }
   // the projection of x_trial, its gradient, and the best point kept
@@ -337,6 +481,17 @@ class NewtonSolve {
     projectOnThreads(set_, ws_.x_trial, threads_);
     delassusGradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
     keepIfBest(ws_.x_trial, ws_.g_trial);
+  }
+
+  // The curvature of each sliding disc's circle in the Lagrangian's Hessian, lambda / r on its
+  // tangent, lambda = max(0, -n . g) the multiplier that holds the disc on the circle
+  void sideCurvatures() {
+    each([&](long i) {
+      const int f = blockFirst(ws_, static_cast<int>(i));
+      if (!ws_.rotated[i] || f == i) return;
+      const double push = -(ws_.frame[f] * ws_.g[f] + ws_.frame[i] * ws_.g[i]);
+      ws_.curvature[i] = std::max(push, 0.0) / ws_.upper[i];
+    });
   }
 
   // One semismooth Newton step on the natural map F(x) = x - P(x - g(x)) (the primal-dual
@@ -351,14 +506,18 @@ class NewtonSolve {
     const double f0 = merit(x, ws_.g);
     each([&](long i) {
       ws_.binding[i] = ws_.side[i] != kFree;
+      ws_.rotated[i] = ws_.side[i] == kSlide;
       if (ws_.side[i] == kLower) x[i] = ws_.lower[i];
       if (ws_.side[i] == kUpper) x[i] = ws_.upper[i];
+      if (ws_.side[i] == kSlide) {  // on the circle at the normal; the tangent stays free
+        x[i] = ws_.upper[i] * ws_.frame[i];
+        ws_.binding[i] = blockFirst(ws_, static_cast<int>(i)) == i;
+      }
     });
     delassusGradient(ws_, x, ws_.g, threads_);
-    if (!newtonDirection()) return usable_ = false;
-    each([&](long i) {
-      if (!ws_.binding[i]) x[i] += ws_.d[i];
-    });
+    if (has_discs_) sideCurvatures();
+    if (!newtonDirection(true)) return usable_ = false;
+    each([&](long i) { x[i] += ws_.d[i]; });
     delassusGradient(ws_, x, ws_.g, threads_);
     // the full step, projected, may already be the answer (the line search's test cannot see
     // a decrease below round-off)
@@ -397,7 +556,7 @@ class NewtonSolve {
     const double w2 = sum(
         [&](long i, double& part) { part += (x[i] - ws_.x_trial[i]) * (x[i] - ws_.x_trial[i]); });
     markBinding(set_, x, ws_.g, std::min(kBindingMargin, std::sqrt(w2)), ws_.binding, threads_);
-    if (!newtonDirection()) return usable_ = false;
+    if (!newtonDirection(false)) return usable_ = false;
     each([&](long i) {
       if (ws_.binding[i]) ws_.d[i] = -ws_.g[i];
     });
@@ -428,6 +587,7 @@ class NewtonSolve {
   int n_;
   int threads_;
   bool usable_ = true;
+  bool has_discs_ = false;
   // the warm start is not kept as it is: at least one step, as MPRGP takes one iteration
   double best_ = std::numeric_limits<double>::infinity();
 };
@@ -468,7 +628,7 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   ws.J.clear();
   ws.K.clear();
   if (n == 0 || !op.columns(ws.J, ws.K) || ws.J.columns() != n || ws.K.columns() != n)
-    return solveMprgp(op, set, settings, x, v, fallback);
+    return solveSeparableQp(op, set, settings, x, v, fallback);
   NewtonSolve solve(op, set, settings, x, ws);
   solve.prepare(v);
   const bool converged = solve.iterate();
@@ -483,7 +643,7 @@ MprgpStats solveProjectedNewton(const QpOperator& op, const SeparableSet& set,
   x = ws.x_start;
   MprgpSettings rest = settings;
   rest.max_iterations = std::max(1, settings.max_iterations - stats.iterations);
-  const MprgpStats finish = solveMprgp(op, set, rest, x, v, fallback);
+  const MprgpStats finish = solveSeparableQp(op, set, rest, x, v, fallback);
   MprgpStats total = finish;
   total.iterations += stats.iterations;
   total.products += stats.products;

@@ -1,8 +1,8 @@
 #pragma once
 // Active-set Newton solver with a sparse Cholesky factorization, for the programs of mprgp.hpp
-// whose sets are all boxes (fixed, free, >= 0, intervals):
+// whose sets are boxes (fixed, free, >= 0, intervals) and discs |x_b| <= r:
 //
-//   min_x  f(x) = 1/2 x^T A x + b^T x,   lower <= x <= upper,   A = J^T K = E^T H^T M^-1 H E,
+//   min_x  f(x) = 1/2 x^T A x + b^T x,   x_b in C_b,   A = J^T K = E^T H^T M^-1 H E,
 //
 // A formed explicitly from the operator's columns (QpOperator::columns), its pattern ordered
 // (AMD; from 4096 rows, METIS's separator last and CAMD on its two sides) and analysed when it
@@ -22,21 +22,29 @@
 //     conditioning of A, so it does not grow with the depth of a pile where CG's grows like
 //     sqrt(cond A). Redundant rows with GLOBAL tangents leave faces whose program is
 //     unbounded (a self-equilibrated set of impulses that does work on the tangents); there
-//     the proximal term and the line search bound the step;
+//     the proximal term and the line search bound the step.
+//     A disc (3D stage 5b) sticks where |x_b - g_b| <= r (both variables free) and slides
+//     otherwise: x_b is put on the circle at n = (x_b - g_b) / |x_b - g_b| and moves along its
+//     tangent tau only, the Newton matrix taken in the frame (n, tau) (R^T A R, R a 2 x 2
+//     rotation per sliding disc: the same pattern) with the circle's curvature lambda / r added
+//     on tau, lambda = max(0, -n . g_b) the multiplier that holds the disc on it. This is the
+//     generalized Jacobian of the disc's projection, (r / |y|)(I - n n^T), |y| = r + lambda:
+//     the primal-dual active set step for friction discs of Hueeber, Stadler & Wohlmuth 2008
+//     ("A primal-dual active set algorithm for three-dimensional contact problems with Coulomb
+//     friction", SIAM J. Sci. Comput. 30), here with the thresholds frozen;
 //   - where no step length lowers |F|, a projected Newton step from the best point so far
 //     (Bertsekas 1982, SIAM J. Control Optim. 20): Newton on the variables not binding within
-//     eps = min(1e-3, |x - P(x - g)|), a gradient step on the binding ones, a projected Armijo
-//     line search on f.
-// The solve is handed to MPRGP (solveMprgp, from the caller's warm start, with the remaining
-// iteration budget) when a factorization fails, the line search finds no descent
-// (no solution: the dual falls without bound) or 200 factorizations did not converge.
-// Stop: mprgp.hpp's natural-map residual, recomputed at the end through the operator.
-// Each step costs a numeric factorization, whose fill grows faster than the rows in a 2D or
-// 3D contact network: it pays where CG needs many iterations (deep piles, tight tolerances).
-// On MprgpSettings::threads threads: the factorization split along the elimination tree
-// (disjoint subtrees at once, then the rows above them) and so are the triangular solves, the
-// products with A row by row, the vector loops by variables and their sums in fixed chunks; the
-// same bits for every count.
+//     eps = min(1e-3, |x - P(x - g)|), a gradient step on the binding ones (a disc binds whole),
+//     a projected Armijo line search on f.
+// The solve is handed to MPRGP / APGD (solveSeparableQp, from the caller's warm start, with the
+// remaining iteration budget) when a factorization fails, the line search finds no descent (no
+// solution: the dual falls without bound) or 200 factorizations did not converge. Stop: mprgp.hpp's
+// natural-map residual, recomputed at the end through the operator. Each step costs a numeric
+// factorization, whose fill grows faster than the rows in a 2D or 3D contact network: it pays where
+// CG needs many iterations (deep piles, tight tolerances). On MprgpSettings::threads threads: the
+// factorization split along the elimination tree (disjoint subtrees at once, then the rows above
+// them) and so are the triangular solves, the products with A row by row, the vector loops by
+// variables and their sums in fixed chunks; the same bits for every count.
 #include <memory>
 #include <utility>
 #include <vector>
@@ -70,6 +78,15 @@ struct ProjectedNewtonWorkspace {
   std::vector<double> b, g, d, x_trial, g_trial;
   std::vector<char> binding, side;
   std::vector<double> lower, upper, x_start, x_best, x_prev, g_prev;
+  // discs: each variable's partner in its two-variable block (-1 in a one-variable block); for
+  // each entry (i, j) of A's lower triangle, the positions of the four entries
+  // A(first_i + a, first_j + c) of its blocks' 2 x 2 coupling (-1 past a one-variable block)
+  std::vector<int> partner, block_entry;
+  // a sliding disc's frame: its unit normal n at its two variables (tau = (-n_1, n_0)), whether
+  // the disc's variables are rotated into (n, tau), and the circle's curvature lambda / r at its
+  // tangent variable
+  std::vector<double> frame, curvature;
+  std::vector<char> rotated;
   std::unique_ptr<SparseCholesky> cholesky;
 
   // the threads the last pattern's factorization is split over (1: CHOLMOD's own, unsplit)
@@ -77,8 +94,10 @@ struct ProjectedNewtonWorkspace {
 };
 
 // A = J^T K from ws.J and ws.K (lower triangle in a_begin / a_row / a_value, the whole matrix by
-// rows in full_*), for the direct solvers (this one and interior_point.hpp)
-void formDelassus(ProjectedNewtonWorkspace& ws, int n, int velocities);
+// rows in full_*), for the direct solvers (this one and interior_point.hpp). The pattern holds
+// every 2 x 2 coupling of two-variable blocks whole (structural zeros where the columns miss),
+// so that a rotation of a disc's variables keeps it; ws.partner is set from the blocks.
+void formDelassus(ProjectedNewtonWorkspace& ws, const SeparableSet& set, int velocities);
 // y = A x + ws.b from the formed A, on threads, the same bits for every count
 void delassusGradient(const ProjectedNewtonWorkspace& ws, const std::vector<double>& x,
                       std::vector<double>& y, int threads);
@@ -92,8 +111,7 @@ bool acceptDirectAnswer(const QpOperator& op, const SeparableSet& set,
                         VectorX& v, std::vector<double>& g, MprgpWorkspace& fallback,
                         MprgpStats& stats);
 
-// Whether solveProjectedNewton takes this program: every block a box, and the operator's
-// columns available.
+// Whether solveProjectedNewton takes this program: every block a box or a disc.
 bool projectedNewtonApplies(const SeparableSet& set);
 
 // Same contract as solveMprgp: x in a warm start, out the solution; v in the velocity at

@@ -170,63 +170,164 @@ std::string YamlField::text(const std::string& key, const std::string& fallback)
 
 namespace {
 
-const char* nodeKind(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Sequence:
-      return "a sequence";
-    case YAML::NodeType::Map:
-      return "a map";
-    case YAML::NodeType::Scalar:
-      return "a scalar";
-    default:
-      return "null";
-  }
-}
-
-}  // namespace
+// The written nodes of a document may expand, through aliases, to this many plus ten for each
+// written node; a billion-laughs tree of aliases expands to 10^9 from a hundred
+constexpr unsigned long long kExpandedBase = 100000, kExpandedPerWritten = 10;
 
 // yaml-cpp keeps every entry of a map, a repeated key too, and its lookup returns the first: a
 // scene with `dimension: 2` and later `dimension: 3` would run as 2D without a word. It also
-// takes `<<` for an ordinary key. Every map is therefore checked once, after the parse, with
-// an explicit stack (a nesting of 10^5 levels must not overflow the call stack).
-void checkYamlStructure(const YAML::Node& root, const std::string& path) {
-  struct Pending {
-    YAML::Node node;
-    std::string field;
-  };
-  std::vector<Pending> stack{{root, ""}};
-  auto where = [&](const YAML::Node& node, const std::string& field) {
-    return path + ":" + std::to_string(node.Mark().line + 1) + ": " +
-           (field.empty() ? std::string() : field + ": ");
-  };
-  while (!stack.empty()) {
-    const Pending next = stack.back();
-    stack.pop_back();
-    if (next.node.IsSequence()) {
-      for (std::size_t i = next.node.size(); i-- > 0;)
-        stack.push_back({next.node[i], next.field + "[" + std::to_string(i) + "]"});
-      continue;
-    }
-    if (!next.node.IsMap()) continue;
-    std::map<std::string, int> lines;
-    std::vector<Pending> children;
-    for (const auto& entry : next.node) {
-      const YAML::Node& key = entry.first;
-      if (!key.IsScalar())
-        throw InputError(where(key, next.field) + "a key must be a name, got " + nodeKind(key));
-      const std::string& name = key.Scalar();
-      const std::string field = next.field.empty() ? name : next.field + "." + name;
-      if (name == "<<" && key.Tag() != "!")
-        throw InputError(where(key, next.field) +
-                         "YAML merge keys (<<) are not supported: write the entries out");
-      const auto [seen, fresh] = lines.emplace(name, key.Mark().line + 1);
-      if (!fresh)
-        throw InputError(where(key, field) + "given twice (first on line " +
-                         std::to_string(seen->second) + ")");
-      children.push_back({entry.second, field});
-    }
-    for (auto c = children.rbegin(); c != children.rend(); ++c) stack.push_back(*c);
+// takes `<<` for an ordinary key. Every map is therefore checked on the parser's events, once
+// per written node: an alias is never walked again (a tree of aliases would expand
+// exponentially, an alias inside its own anchor forever), only its expanded size is counted.
+class StructureCheck : public YAML::EventHandler {
+ public:
+  explicit StructureCheck(const std::string& path) : path_(path) {}
+
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnAnchor(const YAML::Mark&, const std::string& name) override { anchor_name_ = name; }
+  void OnNull(const YAML::Mark& at, YAML::anchor_t anchor) override {
+    leaf(at, anchor, Node{"null", "", "", false, 1});
   }
+  void OnScalar(const YAML::Mark& at, const std::string& tag, YAML::anchor_t anchor,
+                const std::string& value) override {
+    leaf(at, anchor, Node{"a scalar", value, tag, true, 1});
+  }
+  void OnAlias(const YAML::Mark& at, YAML::anchor_t anchor) override {
+    const auto found = anchors_.find(anchor);
+    if (found == anchors_.end()) return;  // the parser refuses an unknown anchor itself
+    if (found->second.open)
+      throw InputError(where(at, nextField()) + "the alias *" + found->second.name +
+                       " refers to the node that holds it (a cycle)");
+    leaf(at, YAML::NullAnchor, found->second.node);
+  }
+  void OnSequenceStart(const YAML::Mark& at, const std::string&, YAML::anchor_t anchor,
+                       YAML::EmitterStyle::value) override {
+    open(at, anchor, false);
+  }
+  void OnMapStart(const YAML::Mark& at, const std::string&, YAML::anchor_t anchor,
+                  YAML::EmitterStyle::value) override {
+    open(at, anchor, true);
+  }
+  void OnSequenceEnd() override { close(); }
+  void OnMapEnd() override { close(); }
+
+ private:
+  struct Node {
+    const char* kind;
+    std::string value, tag;  // a scalar's
+    bool scalar;
+    unsigned long long expanded;  // nodes, aliases expanded
+  };
+  struct Anchor {
+    std::string name;
+    Node node;
+    bool open;
+  };
+  struct Frame {
+    bool map = false;
+    std::string field;
+    YAML::anchor_t anchor = YAML::NullAnchor;
+    unsigned long long expanded_before = 0;
+    bool expect_key = true;
+    std::size_t index = 0;
+    std::string value_field;
+    std::map<std::string, int> lines;
+  };
+
+  std::string where(const YAML::Mark& at, const std::string& field) const {
+    return path_ + ":" + std::to_string(at.line + 1) + ": " +
+           (field.empty() ? std::string() : field + ": ");
+  }
+  std::string field() const { return stack_.empty() ? std::string() : stack_.back().field; }
+  // the field of the node that comes next (a value's or an item's; a key's map)
+  std::string nextField() const {
+    if (stack_.empty()) return std::string();
+    const Frame& top = stack_.back();
+    if (!top.map) return top.field + "[" + std::to_string(top.index) + "]";
+    return top.expect_key ? top.field : top.value_field;
+  }
+
+  // A node's place: a key of the map on top (checked, and no field of its own), a value (the
+  // field its key named) or an item. Returns whether it is a key.
+  bool place(const YAML::Mark& at, const Node& node, std::string& node_field) {
+    if (stack_.empty()) return false;
+    Frame& top = stack_.back();
+    if (!top.map) {
+      node_field = top.field + "[" + std::to_string(top.index++) + "]";
+      return false;
+    }
+    if (!top.expect_key) {
+      node_field = top.value_field;
+      top.expect_key = true;
+      return false;
+    }
+    if (!node.scalar)
+      throw InputError(where(at, top.field) + "a key must be a name, got " + node.kind);
+    if (node.value == "<<" && node.tag != "!")
+      throw InputError(where(at, top.field) +
+                       "YAML merge keys (<<) are not supported: write the entries out");
+    top.value_field = top.field.empty() ? node.value : top.field + "." + node.value;
+    const auto [seen, fresh] = top.lines.emplace(node.value, at.line + 1);
+    if (!fresh)
+      throw InputError(where(at, top.value_field) + "given twice (first on line " +
+                       std::to_string(seen->second) + ")");
+    top.expect_key = false;
+    return true;
+  }
+  void count(const YAML::Mark& at, unsigned long long expanded) {
+    const unsigned long long limit = kExpandedBase + kExpandedPerWritten * ++written_;
+    expanded_ = std::min(expanded_ + expanded, limit + 1);
+    if (expanded_ > limit)
+      throw InputError(where(at, field()) + "YAML aliases expand the document past " +
+                       std::to_string(limit) + " nodes (" + std::to_string(written_) +
+                       " written): an alias may repeat a node, not multiply the document");
+  }
+  void remember(YAML::anchor_t anchor, const Node& node, bool open) {
+    if (anchor == YAML::NullAnchor) return;
+    anchors_[anchor] = Anchor{anchor_name_, node, open};
+  }
+  void leaf(const YAML::Mark& at, YAML::anchor_t anchor, const Node& node) {
+    std::string node_field;
+    place(at, node, node_field);
+    count(at, node.expanded);
+    remember(anchor, node, false);
+  }
+  void open(const YAML::Mark& at, YAML::anchor_t anchor, bool map) {
+    std::string node_field;
+    place(at, Node{map ? "a map" : "a sequence", "", "", false, 1}, node_field);
+    count(at, 1);
+    remember(anchor, Node{map ? "a map" : "a sequence", "", "", false, 1}, true);
+    Frame frame;
+    frame.map = map;
+    frame.field = node_field;
+    frame.anchor = anchor;
+    frame.expanded_before = expanded_ - 1;
+    stack_.push_back(std::move(frame));
+  }
+  void close() {
+    const Frame done = std::move(stack_.back());
+    stack_.pop_back();
+    if (done.anchor == YAML::NullAnchor) return;
+    Anchor& anchor = anchors_[done.anchor];
+    anchor.node.expanded = expanded_ - done.expanded_before;
+    anchor.open = false;
+  }
+
+  std::string path_;
+  std::vector<Frame> stack_;  // explicit: a nesting of 10^5 levels must not overflow the stack
+  std::map<YAML::anchor_t, Anchor> anchors_;
+  std::string anchor_name_;
+  unsigned long long expanded_ = 0, written_ = 0;
+};
+
+}  // namespace
+
+void checkYamlText(const std::string& text, const std::string& path) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  StructureCheck check(path);
+  parser.HandleNextDocument(check);
 }
 
 namespace {
@@ -285,7 +386,8 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path) {
   };
   YAML::Node root;
   try {
-    root = YAML::Load(text);
+    root = YAML::Load(text);  // a syntax error first; an alias cycle is built, never walked
+    checkYamlText(text, path);
     YAML::Mark second;
     if (secondDocument(text, second))
       throw syntaxError(second,
@@ -300,7 +402,6 @@ YAML::Node parseYamlText(const std::string& text, const std::string& path) {
     throw syntaxError(e.mark, "YAML syntax error: " + e.msg);
   }
   if (!root.IsDefined() || root.IsNull()) throw InputError(path + ": the file is empty");
-  checkYamlStructure(root, path);
   return root;
 }
 
@@ -328,6 +429,7 @@ FieldOverride parseOverride(const std::string& assignment) {
   try {
     const std::string value = assignment.substr(equals + 1);
     result.value = YAML::Load(value);
+    checkYamlText(value, "--set " + result.path);
     YAML::Mark second;
     if (secondDocument(value, second))
       throw InputError("--set " + assignment +
@@ -337,7 +439,6 @@ FieldOverride parseOverride(const std::string& assignment) {
   } catch (const YAML::Exception& e) {
     throw InputError("--set " + assignment + ": the value is not YAML: " + e.msg);
   }
-  checkYamlStructure(result.value, "--set " + result.path);
   return result;
 }
 

@@ -78,12 +78,13 @@ YAML::Node loadYamlFile(const std::string& path);
 std::string clipForMessage(const std::string& text);
 
 // YAML text as one document: InputError naming the file and line for a syntax error, an empty
-// text, a second document, a key that is not a name, a key given twice in one map, or a merge
-// key (<<).
+// text, a second document, a key that is not a name, a key given twice in one map, a merge
+// key (<<), an alias inside its own anchor, or aliases that multiply the document's size.
 YAML::Node parseYamlText(const std::string& text, const std::string& path);
 
-// The key checks of parseYamlText on a parsed node.
-void checkYamlStructure(const YAML::Node& root, const std::string& path);
+// The key and alias checks of parseYamlText on the text's first document, from the parser's
+// events (no node is built); YAML syntax errors are thrown as YAML::Exception.
+void checkYamlText(const std::string& text, const std::string& path);
 
 // One field to replace before a scene is parsed: `path` as in messages (scheme.h,
 // bodies[2].radius), `value` as YAML, so lists and numbers keep their types, and `origin`,

@@ -286,8 +286,6 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
     MprgpWorkspace fallback;
     const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
     ASSERT_TRUE(stats.converged) << "trial " << trial << " residual " << stats.residual;
-    std::printf("trial %d: %d ipm + %d\n", trial, stats.newton_steps,
-                stats.iterations - stats.newton_steps);
     worst = std::max(worst, stats.iterations);
     std::vector<double> projected = x;
     projectReference(set, projected);
@@ -308,43 +306,92 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
   std::printf("random box programs to 1e-12: at most %d projected Newton steps\n", worst);
 }
 
+// the discs' radius in the threads test: some stick, some slide
+constexpr double kDiscRadius = 1.0;
+
+// Random programs of every block kind, discs included (3D stage 5b), a duplicated column in
+// half of them: the semismooth steps on the discs' natural map, in each sliding disc's frame,
+// reach the reference by themselves (no hand-over), to 1e-12.
+TEST(ProjectedNewton, RandomDiscProgramsMatchAnIndependentSolve) {
+  std::mt19937 rng(17);
+  int worst = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    const SeparableSet set = setOfEveryKind(rng, trial, 3 + trial % 9);
+    ASSERT_TRUE(projectedNewtonApplies(set));
+    const int n = set.variables;
+    const DenseProgram program = randomProgram(rng, set, trial % 2 == 1);
+    const MatrixX& B = program.matrix();
+    const std::vector<double> reference = referenceSolve(program, set);
+    const double f_ref = program.objective(reference);
+    const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
+    MprgpSettings settings;
+    settings.tolerance = 1e-12;
+    settings.max_iterations = 5000;
+    std::vector<double> x(n, 0.0);
+    VectorX v = VectorX::Zero(B.rows());
+    ProjectedNewtonWorkspace ws;
+    MprgpWorkspace fallback;
+    const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+    ASSERT_TRUE(stats.converged) << "trial " << trial << " residual " << stats.residual;
+    EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed over, trial " << trial;
+    worst = std::max(worst, stats.iterations);
+    std::vector<double> projected = x;
+    projectReference(set, projected);
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(projected[i], x[i], 1e-12) << trial;
+    const VectorX xv = Eigen::Map<VectorX>(x.data(), n);
+    EXPECT_LT((v - B * xv).norm(), 1e-12 * (1.0 + v.norm())) << trial;
+    EXPECT_LE(program.objective(x), f_ref + 1e-10 * (1.0 + std::abs(f_ref))) << trial;
+    EXPECT_LT((v - v_ref).norm(), 1e-6 * (1.0 + v_ref.norm())) << trial;
+  }
+  std::printf("random programs with discs to 1e-12: at most %d semismooth Newton steps\n", worst);
+}
+
 // The factorization split over threads along the elimination tree gives the same bits as one
 // thread: the same iterates, the same answer, bit for bit, on 1, 2, 3 and 4 threads, and
 // again on a second solve of the same pattern (the refactorization path).
 TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
   std::mt19937 rng(5);
   const test::NetworkProgram program = test::gridProgram(90, rng);  // 16 020 variables
-  SeparableSet set;
-  for (int j = 0; j < program.variables(); ++j) set.add(BlockSet::NonNegative, 1);
-  ASSERT_TRUE(projectedNewtonApplies(set));
-  std::vector<double> x_one;
-  VectorX v_one;
-  for (int threads : {1, 2, 3, 4}) {
-    MprgpSettings settings;
-    settings.tolerance = 1e-10;
-    settings.threads = threads;
-    ProjectedNewtonWorkspace ws;
-    MprgpWorkspace fallback;
-    for (int solve = 0; solve < 2; ++solve) {
-      std::vector<double> x(program.variables(), 0.0);
-      VectorX v = VectorX::Zero(program.velocities());
-      const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
-      ASSERT_TRUE(stats.converged) << threads << " threads, residual " << stats.residual;
-      EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed to MPRGP on " << threads;
-      // the split is taken: the bits below compare a split factorization with CHOLMOD's own
-      EXPECT_EQ(ws.factorThreads(), threads);
-      if (threads == 1 && solve == 0) {
-        x_one = x;
-        v_one = v;
-        int active = 0;
-        for (double xi : x) active += xi > 0.0;
-        // both kinds of variables, so that the active set matters
-        EXPECT_GT(active, program.variables() / 10);
-        EXPECT_LT(active, program.variables() * 9 / 10);
-        continue;
+  // the orthant (stage 5a), and discs over pairs of variables (3D stage 5b, in their frames)
+  for (bool discs : {false, true}) {
+    SeparableSet set;
+    for (int j = 0; j < program.variables(); j += discs ? 2 : 1)
+      set.add(discs ? BlockSet::Ball : BlockSet::NonNegative, discs ? 2 : 1, kDiscRadius);
+    ASSERT_TRUE(projectedNewtonApplies(set));
+    std::vector<double> x_one;
+    VectorX v_one;
+    for (int threads : {1, 2, 3, 4}) {
+      MprgpSettings settings;
+      settings.tolerance = 1e-10;
+      settings.threads = threads;
+      ProjectedNewtonWorkspace ws;
+      MprgpWorkspace fallback;
+      for (int solve = 0; solve < 2; ++solve) {
+        std::vector<double> x(program.variables(), 0.0);
+        VectorX v = VectorX::Zero(program.velocities());
+        const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+        ASSERT_TRUE(stats.converged) << threads << " threads, residual " << stats.residual;
+        EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed over on " << threads;
+        // the split is taken: the bits below compare a split factorization with CHOLMOD's own
+        EXPECT_EQ(ws.factorThreads(), threads);
+        if (threads == 1 && solve == 0) {
+          x_one = x;
+          v_one = v;
+          // both kinds of blocks (inside and on the bound), so that the active set matters
+          int inside = 0;
+          for (int b = 0; b < set.blocks(); ++b) {
+            const double* xb = x.data() + set.first[b];
+            inside += discs ? std::hypot(xb[0], xb[1]) < kDiscRadius * (1.0 - 1e-9) : xb[0] > 0.0;
+          }
+          std::printf("%s: %d of %d blocks inside, %d Newton steps\n", discs ? "discs" : "orthant",
+                      inside, set.blocks(), stats.iterations);
+          EXPECT_GT(inside, set.blocks() / 10);
+          EXPECT_LT(inside, set.blocks() * 9 / 10);
+          continue;
+        }
+        EXPECT_TRUE(x == x_one) << threads << " threads, solve " << solve;
+        EXPECT_TRUE(v == v_one) << threads << " threads, solve " << solve;
       }
-      EXPECT_TRUE(x == x_one) << threads << " threads, solve " << solve;
-      EXPECT_TRUE(v == v_one) << threads << " threads, solve " << solve;
     }
   }
 }
@@ -505,11 +552,11 @@ TEST(ConvexStages, FrictionStageMatchesNlgs) {
     std::vector<double> lambda_N(p.size(), 0.0);
     VectorX v1 = settled.step.v_free;
     ASSERT_EQ(solveNormalStage(p, convex, lambda_N, v1, ws).status, SolverStatus::Converged);
-    // the active-set Newton solver takes box sets only: the 2D intervals
+    // the active-set Newton solver: the 2D intervals, and the 3D discs in their frames
     for (TangentMode mode : {TangentMode::Global, TangentMode::Local, TangentMode::None})
       for (StageSolver method : {StageSolver::Mprgp, StageSolver::Newton}) {
-        // spheres: GLOBAL with MPRGP/APGD only; the disks cover the other modes and Newton
-        if (spheres && (method == StageSolver::Newton || mode != TangentMode::Global)) continue;
+        // spheres: GLOBAL only; the disks cover the other modes
+        if (spheres && mode != TangentMode::Global) continue;
         convex.solver = method;
         FrictionStageOptions options;
         options.tangents = mode;
