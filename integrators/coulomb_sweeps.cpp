@@ -128,6 +128,7 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
     stats.iterations = it + 1;
     if (residualDue(settings, it, change2, size2)) {
       stats.residual = coulombResidual(p, P, R, v, ws, n, coloured, settings.threads);
+      if (momentum) momentum->watch(stats.residual);
       if (stats.residual < settings.tolerance) {
         stats.status = SolverStatus::Converged;
         return stats;

@@ -125,6 +125,7 @@ SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows
     // the bilateral corrections drift along redundant rows while the friction law is met
     if (residualDue(settings, it, change2, size2)) {
       stats.residual = residual();
+      if (momentum) momentum->watch(stats.residual);
       if (stats.residual < settings.tolerance) break;
     }
     if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);

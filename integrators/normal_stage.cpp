@@ -42,6 +42,7 @@ SolverStats normalIsland(const ContactProblem& p, const SolverSettings& settings
     stats.iterations = it + 1;
     if (residualDue(settings, it, change2, size2)) {
       stats.residual = normalResidual(rows, lambda_N, v, ws, n);
+      if (momentum) momentum->watch(stats.residual);
       if (stats.residual < settings.tolerance) return stats;
     }
     if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);

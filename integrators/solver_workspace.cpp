@@ -16,6 +16,7 @@ void SolverWorkspace::prepare(int contacts, int nv, int components) {
   for (int c = 0; c < contacts; ++c) order[c] = c;
   impulse_before.resize(5 * static_cast<std::size_t>(contacts));  // widest: P and R, 3 + 2
   impulse_direction.resize(5 * static_cast<std::size_t>(contacts));
+  momentum_rows.resize(contacts);
   // coloured sweeps: at most 65 colours (64 and one swept by one thread), chunks of
   // kColourChunk rows; components are fewer than velocities
   row_colour.resize(contacts);

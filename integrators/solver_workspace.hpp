@@ -34,6 +34,7 @@ struct SolverWorkspace {
   // NNCG: the iterate before the sweep and the search direction, per contact and per dof of
   // the island (island_dofs; dof_stamp marks them without clearing between islands)
   std::vector<double> impulse_before, impulse_direction;
+  std::vector<int> momentum_rows;  // the rows of those slots: order at the start (shuffles move it)
   VectorX v_before, v_direction;
   std::vector<int> island_dofs, dof_stamp;
   int stamp = 0;

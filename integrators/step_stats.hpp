@@ -2,6 +2,8 @@
 // What a step reports (reference, section 5), and the one list of the names it is reported
 // under: stats.csv's columns, the keys of Python's step dictionaries and docs/cli.md all come
 // from visitStepStats.
+#include <string>
+
 #include "integrators/solver_settings.hpp"
 
 namespace sweep {
@@ -41,6 +43,14 @@ struct StepStats {
   int redetections = 0;
   bool margin_outrun = false;
 };
+
+// A step whose solve stopped at its cap without one correct digit (a relative residual of 1 or
+// more): its impulses are not an answer, and a run must not go on as if they were.
+inline bool divergedSolve(const StepStats& s) {
+  return s.cap_hit && !(s.residual < 1.0);
+}
+// The message for it, naming the step
+std::string divergedSolveMessage(const StepStats& s);
 
 // Calls visit(name, value) for each statistic of a step, in stats.csv's column order; the
 // wall-clock timings (seconds, different on every run) only when `timings`. value is a long,

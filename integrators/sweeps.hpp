@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <limits>
 
 #include "framework/parallel.hpp"
 #include "integrators/contact_problem.hpp"
@@ -183,6 +184,8 @@ inline bool residualDue(const SolverSettings& settings, int it, double change2, 
 }
 
 constexpr double kNncgRestart = 1.5;
+// the residual's growth past its least that drops the NNCG momentum (NncgMomentum::watch)
+constexpr double kNncgRunaway = 100.0;
 
 // One per-contact impulse array a solver sweeps: contact c owns data[c * width, + width).
 struct ImpulseArray {
@@ -237,11 +240,14 @@ class NncgMomentum {
     } else {
       std::sort(ws.island_dofs.begin(), ws.island_dofs.begin() + dofs_);
     }
+    // slot k is row order[k] as the solve starts: a shuffled sweep order moves order, not
+    // the slots (keyed by position, a shuffle mixed the rows' impulses with others')
+    std::copy(ws.order.begin(), ws.order.begin() + n, ws.momentum_rows.begin());
     const int width = rowWidth();
     parallelFor(n, threads_, [&](int k) {
       int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
-        const double* x = arrays_[a].data + ws.order[k] * arrays_[a].width;
+        const double* x = arrays_[a].data + ws.momentum_rows[k] * arrays_[a].width;
         for (int j = 0; j < arrays_[a].width; ++j, ++slot) {
           ws.impulse_before[slot] = x[j];
           ws.impulse_direction[slot] = 0.0;
@@ -254,9 +260,20 @@ class NncgMomentum {
     });
   }
 
+  // The residual at a check: once it has grown kNncgRunaway times past the least one seen (or
+  // is not a number), the momentum is dropped for the rest of the solve and plain sweeps go on
+  // from there. The momentum step is not projected: a run of bad steps can carry the impulses
+  // off faster than the sweeps bring them back.
+  void watch(double residual) {
+    if (!(residual <= kNncgRunaway * least_residual_)) stopped_ = true;
+    least_residual_ = std::min(least_residual_, residual);
+  }
+  bool stopped() const { return stopped_; }
+
   // After a sweep whose own impulse change was change2 (in the solver's norm): the momentum
   // step, the new direction, and the snapshot for the next sweep.
   void step(double change2, VectorX& v) {
+    if (stopped_) return;
     double beta = previous_change2_ > 0.0 ? change2 / previous_change2_ : 0.0;
     // Restart along steepest descent once a sweep loses ground. Silcowitz-Hansen et al.
     // restart at beta > 1; with friction and rolling resistance the sweep's change is not
@@ -270,7 +287,7 @@ class NncgMomentum {
     parallelFor(n_, threads_, [&](int k) {
       int slot = k * width;
       for (int a = 0; a < array_count_; ++a) {
-        double* x = arrays_[a].data + ws_.order[k] * arrays_[a].width;
+        double* x = arrays_[a].data + ws_.momentum_rows[k] * arrays_[a].width;
         for (int j = 0; j < arrays_[a].width; ++j, ++slot)
           advance(beta, x[j], ws_.impulse_before[slot], ws_.impulse_direction[slot]);
       }
@@ -303,6 +320,8 @@ class NncgMomentum {
   int array_count_ = 0;
   int dofs_ = 0;
   double previous_change2_ = 0.0;
+  double least_residual_ = std::numeric_limits<double>::infinity();
+  bool stopped_ = false;
 };
 
 }  // namespace sweep

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 
@@ -20,6 +21,16 @@
 #include "integrators/screening.hpp"
 
 namespace sweep {
+
+std::string divergedSolveMessage(const StepStats& s) {
+  std::ostringstream out;
+  out << "step " << s.step << " (t = " << std::setprecision(17) << s.t
+      << "): the contact solve stopped at its iteration cap with a relative residual of "
+      << std::setprecision(3) << s.residual
+      << ", not one digit right: its impulses are not an answer (raise the cap, shorten the "
+         "step, or leave out the acceleration)";
+  return out.str();
+}
 
 Scheme schemeFromName(const std::string& name) {
   if (const std::optional<Scheme> scheme = enumFromName<Scheme>(name)) return *scheme;

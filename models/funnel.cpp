@@ -54,11 +54,18 @@ SceneSpec hallFunnel(const FunnelParameters& p) {
 
   // lattice rows inside the cone: a row at height y holds the disks whose centres keep one
   // pitch/2 off both walls (measured horizontally, which is conservative)
+  // the first row with room for a centre, in closed form: a near-zero angle over a narrow
+  // orifice would otherwise be searched row by row (for ever)
+  const double wall_offset = 0.5 * pitch / std::cos(std::atan(slope));
+  const double first_row =
+      std::max(0.0, std::floor((wall_offset - 0.5 * p.orifice) / (slope * pitch) - 0.5));
+  require(first_row < 1e6, "included_angle", p.included_angle,
+          "leaves no room for a grain over the orifice " + formatValue(p.orifice) +
+              " m within 10^6 lattice rows: widen the angle or the orifice");
   std::vector<Vector3> centres;
-  for (int row = 0; static_cast<int>(centres.size()) < p.count; ++row) {
+  for (long row = static_cast<long>(first_row); static_cast<int>(centres.size()) < p.count; ++row) {
     const double y = pitch * (0.5 + row);
-    const double half_width =
-        0.5 * p.orifice + y * slope - 0.5 * pitch / std::cos(std::atan(slope));
+    const double half_width = 0.5 * p.orifice + y * slope - wall_offset;
     if (half_width < 0.0) continue;
     // in double first: tiny grains in a wide cone fit more per row than an int holds
     const double fits = std::floor(2.0 * half_width / pitch) + 1.0;

@@ -161,9 +161,27 @@ std::vector<double> powderDiameters(const PowderBedParameters& p) {
   return d;
 }
 
+long roughPlateSpheres(const PowderBedParameters& p, const std::vector<double>& diameters) {
+  const double largest = *std::max_element(diameters.begin(), diameters.end());
+  const double pitch = largest * p.lattice_spacing;
+  require(p.heap_length / pitch < 1e6 && p.width / pitch < 1e6, "powder_bed", "heap_length",
+          p.heap_length, "and width must hold fewer than 10^6 grains across");
+  require(p.heap_length >= pitch && p.width >= pitch, "powder_bed", "heap_length", p.heap_length,
+          "must hold one lattice pitch (and width too)");
+  if (!p.rough_plate) return 0;
+  const double d = std::accumulate(diameters.begin(), diameters.end(), 0.0) / diameters.size();
+  const double rows = std::floor(p.length / d) + 1.0;
+  const double across = std::max(1.0, std::floor(p.width / d)) * p.copies_across + 2.0;
+  require(rows * across < 1e6, "powder_bed", "length", p.length,
+          "gives a rough plate of more than 10^6 spheres (" + formatValue(rows) + " x " +
+              formatValue(across) + " of the mean diameter " + formatValue(d) + ")");
+  return static_cast<long>(rows * across);
+}
+
 SceneSpec powderBed(const PowderBedParameters& p) {
   p.validate();
   const std::vector<double> diameters = powderDiameters(p);
+  roughPlateSpheres(p, diameters);  // the lattice and plate checks, before anything is built
   const double largest = *std::max_element(diameters.begin(), diameters.end());
   SceneSpec spec;
   spec.source = "powder_bed";
@@ -231,14 +249,12 @@ SceneSpec powderBed(const PowderBedParameters& p) {
     // frozen spheres of the mean number diameter, centres on the plate, one row past each
     // periodic boundary so that grains at the boundary meet them too
     const double d = std::accumulate(diameters.begin(), diameters.end(), 0.0) / diameters.size();
-    require(p.length / d * (p.period() / d) < 1e6, "powder_bed", "length", p.length,
-            "gives a rough plate of more than 10^6 spheres");
     // the z pitch is fitted to one copy's width, so that the copies' plates match
     const int across = std::max(1, static_cast<int>(std::floor(p.width / d)));
     const double pitch_z = p.width / across;
-    int k = 0;
+    long k = 0;
     for (double x = 0.5 * d; x < p.length; x += d)
-      for (int iz = -1; iz <= across * p.copies_across; ++iz) {
+      for (long iz = -1; iz <= static_cast<long>(across) * p.copies_across; ++iz) {
         BodySpec b;
         b.name = "plate_sphere" + std::to_string(k++);
         b.kind = BodySpec::Kind::Fixed;
@@ -252,12 +268,8 @@ SceneSpec powderBed(const PowderBedParameters& p) {
   // the heap: a lattice with pitch >= the largest diameter, the z pitch fitted to the period,
   // jittered by a fraction of the free space so that columns do not stack exactly
   const double pitch = largest * p.lattice_spacing;
-  require(p.heap_length / pitch < 1e6 && p.width / pitch < 1e6, "powder_bed", "heap_length",
-          p.heap_length, "and width must hold fewer than 10^6 grains across");
-  const int nx = static_cast<int>(std::floor(p.heap_length / pitch));
-  const int nz = static_cast<int>(std::floor(p.width / pitch));
-  require(nx >= 1 && nz >= 1, "powder_bed", "heap_length", p.heap_length,
-          "must hold one lattice pitch (and width too)");
+  const long nx = static_cast<long>(std::floor(p.heap_length / pitch));
+  const long nz = static_cast<long>(std::floor(p.width / pitch));
   const double pitch_z = p.width / nz;
   const double base = p.rough_plate ? largest : 0.0;
   const double jitter = 0.5 * (pitch - largest);
@@ -265,7 +277,7 @@ SceneSpec powderBed(const PowderBedParameters& p) {
     std::mt19937 rng(p.seed + 1);  // the same jitter in every copy
     const double offset_z = copy * p.width;
     for (int i = 0; i < p.count; ++i) {
-      const int ix = i % nx, iz = (i / nx) % nz, iy = i / (nx * nz);
+      const long ix = i % nx, iz = (i / nx) % nz, iy = i / (nx * nz);
       BodySpec b;
       b.name = "p" + std::to_string(static_cast<long>(copy) * p.count + i);
       b.shape = Shape::sphere(0.5 * diameters[i]);

@@ -67,6 +67,11 @@ struct LayerWindow {
 // Sphere diameters of the powder, in heap order.
 std::vector<double> powderDiameters(const PowderBedParameters& parameters);
 
+// The frozen spheres a rough plate adds (0 for a flat plate), from the powder's diameters,
+// after the checks that the heap's lattice and the plate fit (InputError naming the field):
+// cheap, so that a scene can plan its memory before powderBed builds anything.
+long roughPlateSpheres(const PowderBedParameters& parameters, const std::vector<double>& diameters);
+
 // The scene: plate (and the frozen spheres of a rough plate), end walls, blade or roller,
 // temporary walls around the heap, the spheres on a jittered lattice, the periodic width.
 SceneSpec powderBed(const PowderBedParameters& parameters);

@@ -4,7 +4,10 @@
 #include <map>
 #include <random>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
+
+#include <Eigen/Eigenvalues>
 
 #include "contact/detection.hpp"
 #include "framework/error.hpp"
@@ -223,6 +226,25 @@ std::function<void(double, const VectorX&, const VectorX&, VectorX&)> sceneLoads
       throw InputError(spec.source + ": loads[" + std::to_string(k) + "].body: no dynamic body '" +
                        load.body + "' in the bodies list");
     const Body& b = model.bodies[model.bodyIndex(load.body)];
+    // the acceleration each part gives the body (per second for a rate), against the bound
+    // the inertia about the axis a torque turns least easily (2D: the z axis)
+    const double inertia = spec.dimension == 2
+                               ? b.inertia.inertia_com(2, 2)
+                               : Eigen::SelfAdjointEigenSolver<Matrix3>(b.inertia.inertia_com)
+                                     .eigenvalues()
+                                     .minCoeff();
+    const std::string where = spec.source + ": loads[" + std::to_string(k) + "].";
+    for (const auto& [name, value, per] :
+         {std::tuple<const char*, Vector3, double>{"force", load.force, b.inertia.mass},
+          {"force_rate", load.force_rate, b.inertia.mass},
+          {"torque", load.torque, inertia},
+          {"torque_rate", load.torque_rate, inertia}})
+      if (value.stableNorm() > kMaxAcceleration * per)
+        throw InputError(where + name + ": " + formatValue(value.stableNorm()) + " gives body '" +
+                         load.body + "' " + formatValue(value.stableNorm() / per) +
+                         (name[0] == 'f' ? " m/s^2" : " rad/s^2") +
+                         (std::string(name).find("rate") != std::string::npos ? " per s" : "") +
+                         ", beyond " + formatValue(kMaxAcceleration));
     applied.push_back({load, b.v_index, b.q_index});
   }
   const bool planar = spec.dimension == 2;
@@ -261,6 +283,9 @@ Scene buildScene(const SceneSpec& spec) {
     return it->second;
   };
 
+  if (!(spec.gravity.stableNorm() <= kMaxAcceleration))
+    throw InputError(spec.source + ": gravity: |g| = " + formatValue(spec.gravity.stableNorm()) +
+                     " m/s^2 is beyond " + formatValue(kMaxAcceleration));
   ModelBuilder mb(spec.source);
   mb.setGravity(spec.gravity);
   for (const BodySpec& body : spec.bodies) {
@@ -398,6 +423,14 @@ Scene buildScene(const SceneSpec& spec) {
                          formatValue(scene.q0[body.q_index + k]) + " is beyond " +
                          formatValue(kMaxCoordinate) +
                          " (m or rad): no contact could be resolved at that distance");
+  // velocities bounded as coordinates are: 1e300 m/s would end a step at 1e297 m, its energy
+  // overflowing a double
+  for (const Body& body : scene.model.bodies)
+    for (int k = 0; k < body.joint.nv(); ++k)
+      if (!(std::abs(scene.v0[body.v_index + k]) <= kMaxSpeed))
+        throw InputError(spec.source + ": body '" + body.name + "': velocity " +
+                         formatValue(scene.v0[body.v_index + k]) + " is beyond " +
+                         formatValue(kMaxSpeed) + " (m/s or rad/s)");
   if (spec.max_initial_overlap >= 0.0)
     rejectOverlaps(scene, 0.0, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
                    "at t = 0");

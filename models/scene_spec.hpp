@@ -119,6 +119,11 @@ Scene buildScene(const SceneSpec& spec);
 
 // The largest coordinate a scene or a saved state may hold (m or rad).
 inline constexpr double kMaxCoordinate = 1e6;
+// The largest velocity (m/s or rad/s): at it a body crosses the coordinate bound in a second.
+inline constexpr double kMaxSpeed = 1e6;
+// The largest acceleration gravity or a load may give a body (m/s^2 or rad/s^2, about 1e8 g),
+// and a load's rate per second: beyond it a step of 1e-3 s alone exceeds the velocity bound.
+inline constexpr double kMaxAcceleration = 1e9;
 
 // Detection at (t, q, v) with a zero margin (driven bodies where they are at t): InputError
 // "<where>: 'a' and 'b' overlap by X m <when>, more than ..." for the first pair deeper than

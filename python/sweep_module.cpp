@@ -199,6 +199,7 @@ class Simulation {
       s = &stepper_->step();
     }
     checkFinite();
+    if (divergedSolve(*s)) throw std::runtime_error(divergedSolveMessage(*s));
     return stepStatsDict(*s);
   }
 
@@ -221,15 +222,35 @@ class Simulation {
     std::atomic<bool> stop{false};
     runInterruptibly(stop, [&] {
       for (; done < steps && !stop.load(); ++done) {
-        stepper_->step();
+        if (divergedSolve(stepper_->step())) return;
         if (!stepper_->q().allFinite() || !stepper_->v().allFinite()) return;
       }
     });
     checkFinite();
+    if (divergedSolve(stepper_->stats()))
+      throw std::runtime_error(divergedSolveMessage(stepper_->stats()));
     return done;
   }
 
-  void setState(double t, const VectorX& q, const VectorX& v) { stepper_->reset(t, q, v); }
+  // checked as a saved state is: a finite time, coordinates and velocities within their bounds
+  void setState(double t, const VectorX& q, const VectorX& v) {
+    const Model& model = scene_->model;
+    if (!std::isfinite(t)) throw InputError("set_state: t must be finite, got " + exactNumber(t));
+    if (q.size() != model.nq || v.size() != model.nv)
+      throw InputError("set_state: q and v must have nq = " + std::to_string(model.nq) +
+                       " and nv = " + std::to_string(model.nv) + " entries");
+    for (Eigen::Index i = 0; i < q.size(); ++i)
+      if (!(std::abs(q[i]) <= kMaxCoordinate))
+        throw InputError("set_state: q[" + std::to_string(i) + "] = " + exactNumber(q[i]) +
+                         " must be finite and within " + formatValue(kMaxCoordinate) +
+                         " (m or rad)");
+    for (Eigen::Index i = 0; i < v.size(); ++i)
+      if (!(std::abs(v[i]) <= kMaxSpeed))
+        throw InputError("set_state: v[" + std::to_string(i) + "] = " + exactNumber(v[i]) +
+                         " must be finite and within " + formatValue(kMaxSpeed) +
+                         " (m/s or rad/s)");
+    stepper_->reset(t, q, v);
+  }
 
   // contacts of the last step: witness points, normals, gaps, impulses, body indices
   py::dict contacts() const {

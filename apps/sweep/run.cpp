@@ -298,6 +298,13 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
                          formatValue(kMaxCoordinate) +
                          " (m or rad): no contact could be resolved at that distance");
     }
+    for (int k = 0; k < body.joint.nv(); ++k) {
+      const double x = state.v[body.v_index + k];
+      if (std::abs(x) > kMaxSpeed)
+        throw InputError(path + ": v[" + std::to_string(body.v_index + k) +
+                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
+                         formatValue(kMaxSpeed) + " (m/s or rad/s)");
+    }
     if (body.joint.type != JointType::Floating) continue;
     const double norm = state.q.segment<4>(body.q_index + 3).norm();
     if (!(std::abs(norm - 1.0) <= 1e-6))
@@ -368,6 +375,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     if (!stepper.q().allFinite() || !stepper.v().allFinite())
       throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exactNumber(s.t) +
                                "): the state is no longer finite");
+    if (divergedSolve(s)) throw std::runtime_error(divergedSolveMessage(s));
     summary.steps = s.step;
     summary.t_reached = s.t;
     summary.penetration_cumulative += s.penetration_sum;

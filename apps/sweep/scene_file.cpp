@@ -556,6 +556,15 @@ class SceneParser {
     const long seed = g.integer("seed", 1);
     if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
     p.seed = static_cast<std::uint32_t>(seed);
+    // the cheap checks and the rough plate's size before anything is built
+    long plate_spheres = 0;
+    try {
+      p.validate();
+      plate_spheres = roughPlateSpheres(p, powderDiameters(p));
+    } catch (const InputError& e) {
+      throw InputError(path_ + ": " + g.path() + ": " + e.what());
+    }
+    if (plate_spheres > 0) planBodies(g["plate"], plate_spheres);
     const SceneSpec bed = addGenerated(g, [&] { return powderBed(p); });
     out_.spec.detection.path = bed.detection.path;
     out_.spec.detection.periodic = bed.detection.periodic;

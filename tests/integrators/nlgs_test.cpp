@@ -865,6 +865,32 @@ TEST(NncgAcceleration, SameAnswerInFewerSweepsOnAPowderHeap) {
   EXPECT_LT((velocities[1] - velocities[0]).norm(), 1e-5 * scale);
 }
 
+// NNCG over shuffled sweeps (a new seeded order every sweep) reaches plain Gauss-Seidel's
+// answer: the momentum keeps each row's impulse in its own slot whatever the order (keyed by
+// the position in the order, a shuffle once mixed rows' impulses, and a funnel ran away).
+TEST(NncgAcceleration, ShuffledSweepsReachTheSameAnswer) {
+  const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
+  const ContactProblem& p = heap.step.problem;
+  SolverWorkspace ws;
+  ws.prepare(p.size(), heap.scene.model.nv);
+  std::vector<VectorX> velocities;
+  for (const bool shuffled_nncg : {false, true}) {
+    SolverSettings solver;
+    solver.max_iterations = 100000;
+    solver.tolerance = 1e-8;
+    solver.shuffle = shuffled_nncg;
+    solver.acceleration = shuffled_nncg ? NlgsAcceleration::Nncg : NlgsAcceleration::None;
+    std::vector<Vector3> P(p.size(), Vector3::Zero());
+    std::vector<Vector2> R(p.size(), Vector2::Zero());
+    VectorX v = heap.step.v_free;
+    const SolverStats stats = solveCoulombNlgs(p, solver, P, v, ws, &R);
+    EXPECT_EQ(stats.status, SolverStatus::Converged) << shuffled_nncg;
+    velocities.push_back(v);
+  }
+  const double scale = (velocities[0] - heap.step.v_free).norm();
+  EXPECT_LT((velocities[1] - velocities[0]).norm(), 1e-5 * scale);
+}
+
 // Scheme B's stage 5a, the frictionless shock problem, is a convex QP: its velocities are
 // unique, and NNCG must reach them in fewer sweeps.
 TEST(NncgAcceleration, NormalStageSameAnswerInFewerSweeps) {

@@ -106,6 +106,14 @@ class Scenes(unittest.TestCase):
         sim.set_state(0.0, q0, v0)
         self.assertEqual(sim.t, 0.0)
         np.testing.assert_array_equal(sim.q, q0)
+        # checked as a saved state is: the state is kept when the new one is refused
+        far, fast = q0.copy(), v0.copy()
+        far[0], fast[0] = 1e300, 1e300
+        for t, q_new, v_new in ((float("nan"), q0, v0), (0.0, far, v0), (0.0, q0, fast),
+                                (0.0, q0[:-1], v0)):
+            with self.assertRaises(sweep.InputError):
+                sim.set_state(t, q_new, v_new)
+        np.testing.assert_array_equal(sim.q, q0)
 
     def test_input_errors_carry_the_command_line_message(self):
         bad = {"generators[0].count": -5}
