@@ -12,16 +12,11 @@
 #include "apps/sweep/bench.hpp"
 #include "apps/sweep/run.hpp"
 #include "apps/sweep/scene_file.hpp"
+#include "apps/sweep/signals.hpp"
 #include "apps/sweep/viewer.hpp"
 #include "framework/error.hpp"
 
 namespace {
-
-std::atomic<bool> g_stop{false};
-
-extern "C" void onSignal(int) {
-  g_stop.store(true);
-}
 
 // `sweep check` and the head of `sweep run`: what the scene is and what the pipeline skips.
 void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std::ostream& out) {
@@ -176,8 +171,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  sweep::installStopSignals();
   try {
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())
@@ -238,7 +232,7 @@ int main(int argc, char** argv) {
       options.log = &std::cerr;
       options.progress = !quiet;
       options.progress_bar = isatty(STDERR_FILENO) != 0;
-      options.stop = &g_stop;
+      options.stop = &sweep::stopFlag();
       sweep::SavedState start;
       if (!initial_state.empty()) {
         start = sweep::readSavedState(initial_state, scene, file.spec.max_initial_overlap);
@@ -250,15 +244,18 @@ int main(int argc, char** argv) {
       } catch (const sweep::InputError& e) {
         throw sweep::InputError(scene_path + ": " + e.what());
       }
+      const sweep::CooperativeStop polled;  // the loop stops between steps
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
       printSummary(summary, out_dir, std::cout);
-      return summary.interrupted ? 130 : 0;
+      return summary.interrupted ? sweep::stopExitCode() : 0;
     }
     bench_options.out_dir = out_dir;
     bench_options.log = quiet ? nullptr : &std::cerr;
-    bench_options.stop = &g_stop;
+    bench_options.stop = &sweep::stopFlag();
     describeScene(file, scene, std::cout);
-    return sweep::runBench(file, scene, bench_options, std::cout);
+    const sweep::CooperativeStop polled;
+    const int code = sweep::runBench(file, scene, bench_options, std::cout);
+    return code == 130 ? sweep::stopExitCode() : code;
   } catch (const sweep::InputError& e) {
     std::cerr << "sweep: error: " << e.what() << "\n";
     return 2;

@@ -11,12 +11,14 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
 #include <type_traits>
 
 #include "apps/sweep/layer_output.hpp"
+#include "apps/sweep/signals.hpp"
 #include "apps/sweep/vtk_writer.hpp"
 #include "apps/sweep/yaml_field.hpp"
 #include "framework/error.hpp"
@@ -178,7 +180,8 @@ Distribution IterationHistogram::distribution() const {
 }
 
 void writeFileAtomically(const std::string& path, const std::string& text) {
-  const std::string partial = path + ".partial";
+  const PartialFile registered(path + ".partial");
+  const std::string& partial = registered.path();
   std::error_code error;
   {
     std::ofstream out(partial, std::ios::binary);
@@ -333,7 +336,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   // stats.csv grows step by step under its temporary name; renamed when the run ends
   const std::string stats_path = options.out_dir + "/stats.csv";
   std::ofstream stats;
+  std::optional<PartialFile> stats_partial;  // removed if a signal stops the process mid-step
   if (files && settings.output.stats) {
+    stats_partial.emplace(stats_path + ".partial");
     stats.open(stats_path + ".partial", std::ios::binary);
     if (!stats) throw std::runtime_error(stats_path + ".partial: cannot open for writing");
     writeStatsHeader(stats, settings.output.timings);

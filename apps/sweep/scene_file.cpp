@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "apps/sweep/signals.hpp"
 #include "apps/sweep/yaml_field.hpp"
 #include "contact/mesh_io.hpp"
 #include "framework/error.hpp"
@@ -1089,7 +1090,8 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::EndMap;
   if (!out.good()) throw std::runtime_error("scene export: " + out.GetLastError());
 
-  const std::string partial = path + ".partial";
+  const PartialFile registered(path + ".partial");
+  const std::string& partial = registered.path();
   {
     std::ofstream file(partial);
     file << "# explicit scene exported by `sweep export` from " << scene.path << "\n"

@@ -19,6 +19,7 @@ from scratch import scratch_dir
 SWEEP = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else "sweep"
 DATA = os.path.abspath(sys.argv[2]) if len(sys.argv) > 2 else "tests/data"
 SCENES = os.path.join(DATA, "scenes")
+FUNNEL = os.path.join(os.path.dirname(DATA), "..", "examples", "funnel", "funnel.yaml")
 HEADER = ("step,t,candidates,active,islands,iterations_stage1,iterations_stage2,updates,residual,"
           "cap_hit,status,penetration_max,penetration_sum,penetration_count,kinetic,potential,"
           "work_normal,work_tangent,solves,deferred,redetections,t_detect,t_assemble,t_solve,"
@@ -507,8 +508,8 @@ class TiledBed(unittest.TestCase):
 
 
 class Interrupt(unittest.TestCase):
-    def test_ctrl_c_and_sigterm_leave_valid_flagged_results(self):
-        for sig in (signal.SIGINT, signal.SIGTERM):
+    def test_ctrl_c_sigterm_and_sighup_leave_valid_flagged_results(self):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             out = scratch_dir(self, "sweep_int_")
             p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
                                   "--set", "time.end=1000"], cwd=SCENES,
@@ -516,7 +517,7 @@ class Interrupt(unittest.TestCase):
             time.sleep(1.5)
             p.send_signal(sig)
             stdout, stderr = p.communicate(timeout=60)
-            self.assertEqual(p.returncode, 130, f"{sig}: {stderr}")
+            self.assertEqual(p.returncode, 128 + sig, f"{sig}: {stderr}")
             with open(os.path.join(out, "summary.json")) as f:
                 s = json.load(f)
             self.assertTrue(s["interrupted"])
@@ -524,6 +525,36 @@ class Interrupt(unittest.TestCase):
             self.assertEqual(len(rows), s["steps"])
             self.assertGreater(s["steps"], 0)
             self.assertEqual(leftovers(out), [])
+
+
+    def test_a_step_that_does_not_end_is_stopped_within_about_a_second(self):
+        # a sweep cap of 10^8 at an unreachable tolerance: the first contact step lasts minutes
+        out = scratch_dir(self, "sweep_int_")
+        p = subprocess.Popen([SWEEP, "run", FUNNEL, "--out", out, "--quiet", "--scheme",
+                              "moreau-jean", "--set", "scheme.coulomb.max_iterations=100000000",
+                              "--set", "scheme.coulomb.tolerance=1e-300"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        sent = time.monotonic()
+        p.send_signal(signal.SIGINT)
+        p.communicate(timeout=60)
+        self.assertEqual(p.returncode, 130)
+        self.assertLess(time.monotonic() - sent, 5.0)
+        self.assertFalse(os.path.exists(os.path.join(out, "stats.csv")))
+        self.assertEqual(leftovers(out), [])
+
+    def test_check_stops_on_a_signal_while_it_builds(self):
+        # 10^5 disks: about 2 s of building, which no loop polls
+        p = subprocess.Popen([SWEEP, "check", FUNNEL, "--set", "generators[0].count=100000",
+                              "--set", "generators[0].orifice=0.1"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(0.5)
+        sent = time.monotonic()
+        p.send_signal(signal.SIGTERM)
+        stdout, _ = p.communicate(timeout=60)
+        self.assertEqual(p.returncode, 143)
+        self.assertLess(time.monotonic() - sent, 1.5)
+        self.assertNotIn("scene is valid", stdout)
 
 
 class Bench(unittest.TestCase):
