@@ -63,6 +63,7 @@ int runBench(const SceneFile& file, const Scene& scene, const BenchOptions& opti
   std::vector<Scheme> schemes;
   for (const std::string& name : options.schemes) schemes.push_back(schemeFromName(name));
 
+  requireOutputFile(options.out_dir + "/bench.csv");  // before the first run, not after
   std::filesystem::create_directories(options.out_dir + "/runs");
   std::ostringstream csv;
   csv << "scheme,dt,steps,cpu_seconds,penetration_cumulative,penetration_time_integral,"

@@ -181,6 +181,7 @@ int main(int argc, char** argv) {
       if (export_path.empty()) throw sweep::InputError("export: OUTPUT must name a file, got ''");
       if (std::filesystem::is_directory(export_path, error))
         throw sweep::InputError(export_path + ": is a folder; export writes a scene file");
+      sweep::requireOutputFile(export_path);
     }
     if (view->parsed()) {
       const std::string page = sweep::writeViewer(view_options);

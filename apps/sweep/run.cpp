@@ -179,7 +179,20 @@ Distribution IterationHistogram::distribution() const {
   return d;
 }
 
+void requireOutputFile(const std::string& path) {
+  std::error_code error;
+  // followed: a link to a regular file is replaced like one, a link to /dev/null is not
+  const fs::file_status status = fs::status(path, error);
+  if (status.type() == fs::file_type::not_found || status.type() == fs::file_type::regular) return;
+  if (error && status.type() == fs::file_type::none)
+    throw InputError(path + ": cannot check the output path: " + error.message());
+  throw InputError(path + ": exists and is not a regular file (" +
+                   (fs::is_directory(status) ? "a folder" : "a device, a FIFO or a socket") +
+                   "); Sweep writes its outputs as regular files only");
+}
+
 void writeFileAtomically(const std::string& path, const std::string& text) {
+  requireOutputFile(path);
   const PartialFile registered(path + ".partial");
   const std::string& partial = registered.path();
   std::error_code error;
@@ -332,6 +345,15 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     fs::create_directories(options.out_dir, error);
     if (error)
       throw std::runtime_error(options.out_dir + ": cannot create the folder: " + error.message());
+  }
+  // every output path checked before the first step, not found when the run ends
+  if (files) {
+    std::vector<std::string> outputs{"final_state.csv", "summary.json"};
+    if (settings.output.stats) outputs.push_back("stats.csv");
+    if (settings.output.layer) outputs.insert(outputs.end(), {"layer.json", "layer_height.png"});
+    if (settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0)
+      outputs.push_back("snapshots.pvd");
+    for (const std::string& name : outputs) requireOutputFile(options.out_dir + "/" + name);
   }
   // stats.csv grows step by step under its temporary name; renamed when the run ends
   const std::string stats_path = options.out_dir + "/stats.csv";

@@ -108,5 +108,8 @@ std::string exactNumber(double x);
 
 // Writes `text` to `path` through a temporary file and a rename.
 void writeFileAtomically(const std::string& path, const std::string& text);
+// InputError unless `path` is absent or a regular file: a folder, a device or a FIFO there would
+// be replaced by the output's rename (as root, /dev/null), or found only when it is written.
+void requireOutputFile(const std::string& path);
 
 }  // namespace sweep

@@ -328,6 +328,7 @@ std::string writeViewer(const ViewerOptions& options) {
       options.out_file.empty() ? (dir / "view.html").string() : options.out_file;
   if (fs::is_directory(out, error))
     throw InputError("--out: " + out + " is a folder; the page is one file, e.g. view.html");
+  requireOutputFile(out);  // before the page is built, not after
   const fs::path out_folder = fs::absolute(fs::path(out)).parent_path();
   if (!fs::is_directory(out_folder, error))
     throw InputError("--out: " + out + ": the folder " + out_folder.string() + " does not exist");

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import tempfile
@@ -274,6 +275,27 @@ class Hostile(unittest.TestCase):
         r = sweep("export", "small_box.yaml", folder)
         self.assertEqual(r.returncode, 2, r.stderr)
         self.assertIn(folder + ": is a folder; export writes a scene file", r.stderr)
+
+    def test_outputs_that_are_not_regular_files_are_refused_before_the_first_step(self):
+        folder = scratch_dir(self, "sweep_outputs_")
+        fifo = os.path.join(folder, "scene.fifo")
+        os.mkfifo(fifo)
+        for args in (["export", "small_box.yaml", fifo],
+                     ["export", "small_box.yaml", os.path.join(folder, "null")]):
+            if args[-1].endswith("null"):
+                os.symlink("/dev/null", args[-1])
+            r = sweep(*args)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(args[-1] + ": exists and is not a regular file", r.stderr)
+        self.assertTrue(stat.S_ISFIFO(os.stat(fifo).st_mode))
+        # a folder where a run's file goes: refused before any step, nothing else written
+        out = os.path.join(folder, "run")
+        os.makedirs(os.path.join(out, "summary.json"))
+        r = sweep("run", "small_box.yaml", "--out", out, "--quiet")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn(os.path.join(out, "summary.json") + ": exists and is not a regular file "
+                      "(a folder)", r.stderr)
+        self.assertEqual(sorted(os.listdir(out)), ["summary.json"])
 
     def test_snapshot_interval_far_below_the_step_writes_one_per_step(self):
         text = ONE_DISK.replace("NORMAL", "[0, 1]") + "output: {vtk_interval: 1.0e-30}\n"
