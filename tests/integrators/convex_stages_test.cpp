@@ -193,6 +193,24 @@ TEST(Mprgp, RandomProgramsMatchAnIndependentSolve) {
       worst_iterations[0], worst_iterations[1]);
 }
 
+// A solve's answer x (v: its velocity) against the reference: feasible, v = B x, an objective no
+// higher than the reference's, and the reference's velocities
+void expectTheReferenceAnswer(const DenseProgram& program, const SeparableSet& set,
+                              const std::vector<double>& reference, const std::vector<double>& x,
+                              const VectorX& v, int trial) {
+  const int n = set.variables;
+  const MatrixX& B = program.matrix();
+  const double f_ref = program.objective(reference);
+  const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
+  std::vector<double> projected = x;
+  projectReference(set, projected);
+  for (int i = 0; i < n; ++i) EXPECT_NEAR(projected[i], x[i], 1e-12) << trial;
+  const VectorX xv = Eigen::Map<const VectorX>(x.data(), n);
+  EXPECT_LT((v - B * xv).norm(), 1e-12 * (1.0 + v.norm())) << trial;
+  EXPECT_LE(program.objective(x), f_ref + 1e-10 * (1.0 + std::abs(f_ref))) << trial;
+  EXPECT_LT((v - v_ref).norm(), 1e-6 * (1.0 + v_ref.norm())) << trial;
+}
+
 // Random programs of every block kind (>= 0, free, intervals, discs, fixed, balls of radius 0),
 // a duplicated column in half of them. To 1e-7 the interior-point iterations reach the
 // reference by themselves, in a count that does not grow with the program's size; to 1e-12 the
@@ -273,27 +291,18 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
     ASSERT_TRUE(projectedNewtonApplies(set));
     const int n = set.variables;
     const DenseProgram program = randomProgram(rng, set, trial % 2 == 1);
-    const MatrixX& B = program.matrix();
     const std::vector<double> reference = referenceSolve(program, set);
-    const double f_ref = program.objective(reference);
-    const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
     MprgpSettings settings;
     settings.tolerance = 1e-12;
     settings.max_iterations = 5000;
     std::vector<double> x(n, 0.0);
-    VectorX v = VectorX::Zero(B.rows());
+    VectorX v = VectorX::Zero(program.matrix().rows());
     ProjectedNewtonWorkspace ws;
     MprgpWorkspace fallback;
     const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
     ASSERT_TRUE(stats.converged) << "trial " << trial << " residual " << stats.residual;
     worst = std::max(worst, stats.iterations);
-    std::vector<double> projected = x;
-    projectReference(set, projected);
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(projected[i], x[i], 1e-12) << trial;
-    const VectorX xv = Eigen::Map<VectorX>(x.data(), n);
-    EXPECT_LT((v - B * xv).norm(), 1e-12 * (1.0 + v.norm())) << trial;
-    EXPECT_LE(program.objective(x), f_ref + 1e-10 * (1.0 + std::abs(f_ref))) << trial;
-    EXPECT_LT((v - v_ref).norm(), 1e-6 * (1.0 + v_ref.norm())) << trial;
+    expectTheReferenceAnswer(program, set, reference, x, v, trial);
     // warm-started from its own answer, one step keeps it
     const std::vector<double> answer = x;
     std::fill(x.begin(), x.end(), 0.0);
@@ -320,28 +329,19 @@ TEST(ProjectedNewton, RandomDiscProgramsMatchAnIndependentSolve) {
     ASSERT_TRUE(projectedNewtonApplies(set));
     const int n = set.variables;
     const DenseProgram program = randomProgram(rng, set, trial % 2 == 1);
-    const MatrixX& B = program.matrix();
     const std::vector<double> reference = referenceSolve(program, set);
-    const double f_ref = program.objective(reference);
-    const VectorX v_ref = B * Eigen::Map<const VectorX>(reference.data(), n);
     MprgpSettings settings;
     settings.tolerance = 1e-12;
     settings.max_iterations = 5000;
     std::vector<double> x(n, 0.0);
-    VectorX v = VectorX::Zero(B.rows());
+    VectorX v = VectorX::Zero(program.matrix().rows());
     ProjectedNewtonWorkspace ws;
     MprgpWorkspace fallback;
     const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
     ASSERT_TRUE(stats.converged) << "trial " << trial << " residual " << stats.residual;
     EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed over, trial " << trial;
     worst = std::max(worst, stats.iterations);
-    std::vector<double> projected = x;
-    projectReference(set, projected);
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(projected[i], x[i], 1e-12) << trial;
-    const VectorX xv = Eigen::Map<VectorX>(x.data(), n);
-    EXPECT_LT((v - B * xv).norm(), 1e-12 * (1.0 + v.norm())) << trial;
-    EXPECT_LE(program.objective(x), f_ref + 1e-10 * (1.0 + std::abs(f_ref))) << trial;
-    EXPECT_LT((v - v_ref).norm(), 1e-6 * (1.0 + v_ref.norm())) << trial;
+    expectTheReferenceAnswer(program, set, reference, x, v, trial);
   }
   std::printf("random programs with discs to 1e-12: at most %d semismooth Newton steps\n", worst);
 }
