@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -12,6 +13,10 @@
 #include "framework/memory.hpp"
 
 namespace sweep {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
 
 DrivenBody DrivenBody::fixed(const std::string& name, const Pose& pose) {
   return DrivenBody{name, [pose](double) { return pose; },
@@ -162,11 +167,11 @@ void ModelBuilder::addJointLimits(int body, double lower, double upper) {
   if (!b.joint.hasLimits())
     throw InputError(source_ + ": joint '" + b.joint_name + "': limits need a 1-dof " +
                      "revolute or prismatic joint, got " + toString(b.joint.type));
-  if (!(lower <= upper))
+  if (!(lower <= upper) || lower == kInf || upper == -kInf)
     throw InputError(source_ + ": joint '" + b.joint_name + "': lower limit " + formatValue(lower) +
                      " exceeds upper limit " + formatValue(upper));
-  limits_.push_back(JointLimit{body, 0, 0, lower, +1.0});
-  limits_.push_back(JointLimit{body, 0, 0, upper, -1.0});
+  if (lower > -kInf) limits_.push_back(JointLimit{body, 0, 0, lower, +1.0});
+  if (upper < kInf) limits_.push_back(JointLimit{body, 0, 0, upper, -1.0});
 }
 
 void ModelBuilder::addCollision(const CollisionGeometry& geometry) {
@@ -227,7 +232,22 @@ void ModelBuilder::addJointCoupling(int follower, int leader, double multiplier,
   if (!std::isfinite(multiplier) || !std::isfinite(offset))
     throw InputError(who + ": multiplier and offset must be finite, got " +
                      formatValue(multiplier) + " and " + formatValue(offset));
+  for (const JointCoupling& c : couplings_)
+    if (c.follower == follower)
+      throw InputError(who + ": it already follows '" + bodies_[c.leader].joint_name +
+                       "'; a joint follows one leader");
   couplings_.push_back(JointCoupling{follower, leader, multiplier, offset});
+  // a chain of couplings that closes (a follows b follows a) fixes no joint and leaves the
+  // constraints singular: walk up from the new follower
+  for (int at = leader, steps = 0;; ++steps) {
+    if (at == follower)
+      throw InputError(who + ": the couplings form a cycle through joint '" + f.joint_name +
+                       "'; a chain of mimic joints must end at a joint that follows none");
+    const auto up = std::find_if(couplings_.begin(), couplings_.end(),
+                                 [&](const JointCoupling& c) { return c.follower == at; });
+    if (up == couplings_.end() || steps > static_cast<int>(couplings_.size())) break;
+    at = up->leader;
+  }
 }
 
 void ModelBuilder::setGravity(const Vector3& gravity) {
@@ -329,6 +349,8 @@ Model ModelBuilder::build() const {
   model.nv = iv;
   model.constraints = constraints_;
   for (const JointCoupling& c : couplings_) {
+    model.couplings.push_back(
+        JointCoupling{new_index[c.follower], new_index[c.leader], c.multiplier, c.offset});
     const Body& f = model.bodies[new_index[c.follower]];
     const Body& l = model.bodies[new_index[c.leader]];
     const int fq = f.q_index, lq = l.q_index, fv = f.v_index, lv = l.v_index, nv = iv;
@@ -396,6 +418,63 @@ Model ModelBuilder::build() const {
     }
   }
   return model;
+}
+
+void resolveJointCouplings(const Model& model, VectorX& q, const std::vector<bool>& given) {
+  // leaders first: a follower's depth is the length of its chain of leaders
+  const int n = static_cast<int>(model.bodies.size());
+  std::vector<int> coupling_of(n, -1);
+  for (std::size_t k = 0; k < model.couplings.size(); ++k)
+    coupling_of[model.couplings[k].follower] = static_cast<int>(k);
+  std::vector<int> depth(model.couplings.size(), -1);
+  std::vector<int> chain;
+  for (std::size_t k = 0; k < model.couplings.size(); ++k) {
+    chain.clear();
+    int at = static_cast<int>(k);
+    while (at >= 0 && depth[at] < 0) {
+      chain.push_back(at);
+      at = coupling_of[model.couplings[at].leader];
+    }
+    int d = at >= 0 ? depth[at] : 0;
+    for (auto c = chain.rbegin(); c != chain.rend(); ++c) depth[*c] = ++d;
+  }
+  std::vector<int> order(model.couplings.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return depth[a] < depth[b]; });
+  for (int k : order) {
+    const JointCoupling& c = model.couplings[k];
+    if (!given.empty() && given[c.follower]) continue;
+    q[model.bodies[c.follower].q_index] =
+        c.multiplier * q[model.bodies[c.leader].q_index] + c.offset;
+  }
+}
+
+void rejectBrokenJoints(const Model& model, const VectorX& q, double max_violation,
+                        const std::string& where, const std::string& when) {
+  for (const JointLimit& l : model.limits) {
+    const double value = q[l.q_index];
+    const double past = -l.side * (value - l.bound);
+    if (!(past > max_violation)) continue;
+    const std::string unit =
+        model.bodies[l.body].joint.type == JointType::Prismatic ? " m" : " rad";
+    throw InputError(where + ": joint '" + model.bodies[l.body].joint_name + "' is at " +
+                     formatValue(value) + unit + " " + when + ", past its " +
+                     (l.side > 0 ? "lower" : "upper") + " limit " + formatValue(l.bound) + " by " +
+                     formatValue(past) + " (more than " + formatValue(max_violation) +
+                     "): start it inside its limits");
+  }
+  for (const JointCoupling& c : model.couplings) {
+    const Body& f = model.bodies[c.follower];
+    const Body& l = model.bodies[c.leader];
+    const double wanted = c.multiplier * q[l.q_index] + c.offset;
+    const double off = std::abs(q[f.q_index] - wanted);
+    if (!(off > max_violation)) continue;
+    throw InputError(where + ": joint '" + f.joint_name + "' is at " + formatValue(q[f.q_index]) +
+                     " " + when + ", but its mimic coupling to '" + l.joint_name + "' (at " +
+                     formatValue(q[l.q_index]) + ") needs " + formatValue(c.multiplier) + " * " +
+                     formatValue(q[l.q_index]) + " + " + formatValue(c.offset) + " = " +
+                     formatValue(wanted) + ": set it so, or leave it unset to follow its leader");
+  }
 }
 
 }  // namespace sweep

@@ -129,6 +129,13 @@ struct DrivenBody {
                               const std::vector<Vector3>& positions);
 };
 
+// q[follower] = multiplier * q[leader] + offset between two 1-dof joints (a URDF <mimic>),
+// by body index. Each joint follows at most one leader and no chain of couplings closes.
+struct JointCoupling {
+  int follower = 0, leader = 0;
+  double multiplier = 1.0, offset = 0.0;
+};
+
 struct Model {
   std::vector<Body> bodies;
   std::vector<Component> components;
@@ -137,6 +144,7 @@ struct Model {
   std::vector<DrivenBody> driven_bodies;
   std::vector<EquationSystem> systems;  // their components follow the body trees'
   std::vector<ConstraintFunction> constraints;
+  std::vector<JointCoupling> couplings;  // also in `constraints`, as bilateral functions
   Vector3 gravity = Vector3(0, 0, -9.81);
   int nq = 0;
   int nv = 0;
@@ -159,6 +167,7 @@ class ModelBuilder {
   // Adds a body attached to `parent` (-1 for the world); returns its index in this builder.
   int addBody(int parent, const std::string& joint_name, const Joint& joint,
               const Pose& joint_placement, const Inertia& inertia, const std::string& body_name);
+  // An infinite bound is no bound; lower == upper locks the joint at that value.
   void addJointLimits(int body, double lower, double upper);
   void addCollision(const CollisionGeometry& geometry);
   void addDrivenBody(const DrivenBody& body);
@@ -184,12 +193,18 @@ class ModelBuilder {
   std::vector<DrivenBody> driven_;
   std::vector<EquationSystem> systems_;
   std::vector<ConstraintFunction> constraints_;
-  struct JointCoupling {
-    int follower, leader;
-    double multiplier, offset;
-  };
   std::vector<JointCoupling> couplings_;  // body indices of this builder
   Vector3 gravity_ = Vector3(0, 0, -9.81);
 };
+
+// Sets q of every coupled joint whose body is not marked in `given` from its leader, leaders
+// first, so that the couplings hold exactly (`given` empty: none is given).
+void resolveJointCouplings(const Model& model, VectorX& q, const std::vector<bool>& given = {});
+
+// InputError "<where>: joint 'j' is at X <when>, past its upper limit U by D" for the first
+// joint limit or mimic coupling violated by more than max_violation (m or rad). Constraints by
+// functions are left alone: they hold their velocity, from wherever they start.
+void rejectBrokenJoints(const Model& model, const VectorX& q, double max_violation,
+                        const std::string& where, const std::string& when);
 
 }  // namespace sweep

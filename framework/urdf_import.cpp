@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <limits>
 #include <map>
 #include <vector>
 
@@ -19,6 +20,12 @@
 namespace sweep {
 
 namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+struct LimitAttributes {
+  bool lower = false, upper = false;  // written in the <limit> element
+};
 
 // urdfdom reports its reasons through console_bridge; keep them for our error message.
 class CapturedLog : public console_bridge::OutputHandler {
@@ -91,8 +98,12 @@ std::string number(double x) {
 class Importer {
  public:
   Importer(ModelBuilder& builder, const std::string& source, const std::string& base_dir,
-           const UrdfOptions& options)
-      : builder_(builder), source_(source), base_dir_(base_dir), options_(options) {}
+           const UrdfOptions& options, std::map<std::string, LimitAttributes> limit_attributes)
+      : builder_(builder),
+        source_(source),
+        base_dir_(base_dir),
+        options_(options),
+        limit_attributes_(std::move(limit_attributes)) {}
 
   int run(const urdf::ModelInterface& urdf) {
     const int first = addTrees(urdf);
@@ -303,12 +314,17 @@ class Importer {
       if (!j.limits) fail("joint '" + j.name + "'", "revolute and prismatic joints need <limit>");
       if (!(std::isfinite(j.limits->lower) && std::isfinite(j.limits->upper)))
         fail("joint '" + j.name + "' <limit>", "lower and upper must be finite");
-      if (j.limits->lower > j.limits->upper)
+      // urdfdom reads an absent bound as 0; as Drake does, an absent bound is no bound, and a
+      // joint whose two bounds are written equal is locked there
+      const auto given = limit_attributes_.find(j.name);
+      const double lower =
+          given != limit_attributes_.end() && given->second.lower ? j.limits->lower : -kInfinity;
+      const double upper =
+          given != limit_attributes_.end() && given->second.upper ? j.limits->upper : kInfinity;
+      if (lower > upper)
         fail("joint '" + j.name + "' <limit>",
-             "lower " + number(j.limits->lower) + " exceeds upper " + number(j.limits->upper));
-      // URDF's default limit 0..0 on a revolute joint means "no limits given"
-      if (j.limits->lower < j.limits->upper)
-        builder_.addJointLimits(body, j.limits->lower, j.limits->upper);
+             "lower " + number(lower) + " exceeds upper " + number(upper));
+      if (lower > -kInfinity || upper < kInfinity) builder_.addJointLimits(body, lower, upper);
     }
     addLinkContents(*link, body);
     return body;
@@ -327,6 +343,7 @@ class Importer {
     double multiplier, offset;
   };
   std::vector<Mimic> mimics_;
+  std::map<std::string, LimitAttributes> limit_attributes_;
   std::map<std::string, int> joint_body_;  // builder body of each joint's child link
   std::map<std::string, const urdf::Joint*> joints_;
 };
@@ -425,7 +442,9 @@ void requireShallowXml(const std::string& xml, const std::string& source) {
 // Checks urdfdom does not make, or reports less precisely: XML syntax with its line, a link
 // claimed as the child of two joints (urdfdom only sees "two root links" then), and joints
 // that form a loop (urdfdom's tree would then hold itself through shared pointers and leak).
-void precheckXml(const std::string& xml, const std::string& source) {
+// Returns which bounds each joint's <limit> writes, which urdfdom does not tell.
+std::map<std::string, LimitAttributes> precheckXml(const std::string& xml,
+                                                   const std::string& source) {
   requireUtf8(xml, source);
   requireShallowXml(xml, source);
   TiXmlDocument doc;
@@ -436,8 +455,13 @@ void precheckXml(const std::string& xml, const std::string& source) {
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (!robot) throw InputError(source + ": not a valid URDF: no <robot> element");
   std::map<std::string, std::string> parent_joint, parent_link;
+  std::map<std::string, LimitAttributes> limit_attributes;
   for (const TiXmlElement* j = robot->FirstChildElement("joint"); j;
        j = j->NextSiblingElement("joint")) {
+    const TiXmlElement* limit = j->FirstChildElement("limit");
+    if (limit && j->Attribute("name"))
+      limit_attributes[j->Attribute("name")] = {limit->Attribute("lower") != nullptr,
+                                                limit->Attribute("upper") != nullptr};
     const TiXmlElement* child = j->FirstChildElement("child");
     const TiXmlElement* parent = j->FirstChildElement("parent");
     const char* link = child ? child->Attribute("link") : nullptr;
@@ -474,11 +498,12 @@ void precheckXml(const std::string& xml, const std::string& source) {
     }
     for (const std::string* link : path) state[*link] = Walk::Ends;
   }
+  return limit_attributes;
 }
 
 int importParsed(ModelBuilder& builder, const std::string& xml, const std::string& source,
                  const std::string& base_dir, const UrdfOptions& options) {
-  precheckXml(xml, source);
+  std::map<std::string, LimitAttributes> limit_attributes = precheckXml(xml, source);
   const std::size_t percent = xml.find('%');
   urdf::ModelInterfaceSharedPtr urdf;
   std::string reasons;
@@ -502,7 +527,7 @@ int importParsed(ModelBuilder& builder, const std::string& xml, const std::strin
   }
   if (!urdf)
     throw InputError(source + ": not a valid URDF" + (reasons.empty() ? "" : ": " + reasons));
-  return Importer(builder, source, base_dir, options).run(*urdf);
+  return Importer(builder, source, base_dir, options, std::move(limit_attributes)).run(*urdf);
 }
 
 }  // namespace

@@ -382,14 +382,17 @@ Scene buildScene(const SceneSpec& spec) {
   }
 
   std::vector<int> body_materials(model.bodies.size(), 0);
+  std::vector<bool> joint_given(model.bodies.size(), false);
   for (std::size_t u = 0; u < spec.urdfs.size(); ++u) {
     const UrdfSpec& urdf = spec.urdfs[u];
     for (const auto& [joint, value] : urdf.joint_positions) {
-      const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
+      const int index = model.jointIndex(urdf.prefix + joint);
+      const Body& b = model.bodies[index];
       if (b.joint.nq() != 1)
         throw InputError(spec.source + ": joint '" + joint + "' has " +
                          std::to_string(b.joint.nq()) + " coordinates; set it by its state");
       scene.q0[b.q_index] = value;
+      joint_given[index] = true;
     }
     for (const auto& [joint, value] : urdf.joint_velocities) {
       const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
@@ -431,6 +434,9 @@ Scene buildScene(const SceneSpec& spec) {
         throw InputError(spec.source + ": body '" + body.name + "': velocity " +
                          formatValue(scene.v0[body.v_index + k]) + " is beyond " +
                          formatValue(kMaxSpeed) + " (m/s or rad/s)");
+  // a mimic joint not set follows its leader from the start; one set must agree with it
+  resolveJointCouplings(scene.model, scene.q0, joint_given);
+  rejectBrokenJoints(scene.model, scene.q0, kMaxStartJointViolation, spec.source, "at t = 0");
   if (spec.max_initial_overlap >= 0.0)
     rejectOverlaps(scene, 0.0, scene.q0, scene.v0, spec.max_initial_overlap, 0.0, spec.source,
                    "at t = 0");

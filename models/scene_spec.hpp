@@ -119,6 +119,10 @@ Scene buildScene(const SceneSpec& spec);
 
 // The largest coordinate a scene or a saved state may hold (m or rad).
 inline constexpr double kMaxCoordinate = 1e6;
+// How far a joint may start past a limit or off its mimic coupling (m or rad): a scene's
+// start is exact, a saved state holds what its run's solves left.
+inline constexpr double kMaxStartJointViolation = 1e-9;
+inline constexpr double kMaxStateJointViolation = 1e-2;
 // The largest velocity (m/s or rad/s): at it a body crosses the coordinate bound in a second.
 inline constexpr double kMaxSpeed = 1e6;
 // The largest acceleration gravity or a load may give a body (m/s^2 or rad/s^2, about 1e8 g),

@@ -232,7 +232,8 @@ class Simulation {
     return done;
   }
 
-  // checked as a saved state is: a finite time, coordinates and velocities within their bounds
+  // checked as a saved state is: a finite time, coordinates and velocities within their
+  // bounds, unit quaternions, joints within their limits and couplings, no deep overlap
   void setState(double t, const VectorX& q, const VectorX& v) {
     const Model& model = scene_->model;
     if (!std::isfinite(t)) throw InputError("set_state: t must be finite, got " + exactNumber(t));
@@ -249,6 +250,7 @@ class Simulation {
         throw InputError("set_state: v[" + std::to_string(i) + "] = " + exactNumber(v[i]) +
                          " must be finite and within " + formatValue(kMaxSpeed) +
                          " (m/s or rad/s)");
+    checkState(*scene_, SavedState{t, q, v}, file_.spec.max_initial_overlap, "set_state");
     stepper_->reset(t, q, v);
   }
 

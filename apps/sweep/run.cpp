@@ -226,6 +226,42 @@ SavedState readSavedState(const std::string& path, const Scene& scene, double ma
   return readSavedStateText(text.str(), path, scene, max_overlap);
 }
 
+void checkState(const Scene& scene, const SavedState& state, double max_overlap,
+                const std::string& path) {
+  const Model& model = scene.model;
+  if (!(state.t >= 0.0))
+    throw InputError(path + ": t = " + exactNumber(state.t) +
+                     " s is before the scene's start (t = 0)");
+  for (const Body& body : model.bodies) {
+    for (int k = 0; k < body.joint.nq(); ++k) {
+      const double x = state.q[body.q_index + k];
+      if (std::abs(x) > kMaxCoordinate)
+        throw InputError(path + ": q[" + std::to_string(body.q_index + k) +
+                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
+                         formatValue(kMaxCoordinate) +
+                         " (m or rad): no contact could be resolved at that distance");
+    }
+    for (int k = 0; k < body.joint.nv(); ++k) {
+      const double x = state.v[body.v_index + k];
+      if (std::abs(x) > kMaxSpeed)
+        throw InputError(path + ": v[" + std::to_string(body.v_index + k) +
+                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
+                         formatValue(kMaxSpeed) + " (m/s or rad/s)");
+    }
+    if (body.joint.type != JointType::Floating) continue;
+    const double norm = state.q.segment<4>(body.q_index + 3).norm();
+    if (!(std::abs(norm - 1.0) <= 1e-6))
+      throw InputError(path + ": q[" + std::to_string(body.q_index + 3) + ".." +
+                       std::to_string(body.q_index + 6) + "] (body '" + body.name +
+                       "'): the orientation quaternion has norm " + exactNumber(norm) + ", not 1");
+  }
+  rejectBrokenJoints(scene.model, state.q, kMaxStateJointViolation, path,
+                     "at the saved state's t = " + exactNumber(state.t) + " s");
+  if (max_overlap >= 0.0)
+    rejectOverlaps(scene, state.t, state.q, state.v, max_overlap, kMaxStateRelativeOverlap, path,
+                   "at the saved state's t = " + exactNumber(state.t) + " s");
+}
+
 SavedState readSavedStateText(const std::string& text, const std::string& path, const Scene& scene,
                               double max_overlap) {
   const Model& model = scene.model;
@@ -302,35 +338,7 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
     if (!seen_v[i])
       throw InputError(path + ": v[" + std::to_string(i) + "] is missing (the scene has nv = " +
                        std::to_string(model.nv) + ": a state of another scene?)");
-  if (!(state.t >= 0.0))
-    throw InputError(path + ": t = " + exactNumber(state.t) +
-                     " s is before the scene's start (t = 0)");
-  for (const Body& body : model.bodies) {
-    for (int k = 0; k < body.joint.nq(); ++k) {
-      const double x = state.q[body.q_index + k];
-      if (std::abs(x) > kMaxCoordinate)
-        throw InputError(path + ": q[" + std::to_string(body.q_index + k) +
-                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
-                         formatValue(kMaxCoordinate) +
-                         " (m or rad): no contact could be resolved at that distance");
-    }
-    for (int k = 0; k < body.joint.nv(); ++k) {
-      const double x = state.v[body.v_index + k];
-      if (std::abs(x) > kMaxSpeed)
-        throw InputError(path + ": v[" + std::to_string(body.v_index + k) +
-                         "] = " + exactNumber(x) + " (body '" + body.name + "') is beyond " +
-                         formatValue(kMaxSpeed) + " (m/s or rad/s)");
-    }
-    if (body.joint.type != JointType::Floating) continue;
-    const double norm = state.q.segment<4>(body.q_index + 3).norm();
-    if (!(std::abs(norm - 1.0) <= 1e-6))
-      throw InputError(path + ": q[" + std::to_string(body.q_index + 3) + ".." +
-                       std::to_string(body.q_index + 6) + "] (body '" + body.name +
-                       "'): the orientation quaternion has norm " + exactNumber(norm) + ", not 1");
-  }
-  if (max_overlap >= 0.0)
-    rejectOverlaps(scene, state.t, state.q, state.v, max_overlap, kMaxStateRelativeOverlap, path,
-                   "at the saved state's t = " + exactNumber(state.t) + " s");
+  checkState(scene, state, max_overlap, path);
   return state;
 }
 

@@ -23,9 +23,15 @@ struct SavedState {
 // Reads a final_state.csv written by `sweep run` for `scene`. InputError naming the file, the
 // line and the value for a missing file, a malformed row, a value that is not finite, a state
 // of another size than the model's (nq, nv), a time before 0, a coordinate beyond 1e6, a
-// quaternion that is not unit, or two bodies overlapping by more than max(max_overlap, a tenth
-// of the smaller one's bounding radius).
+// quaternion that is not unit, a joint past its limits or off its mimic coupling by more than
+// 1e-2, or two bodies overlapping by more than max(max_overlap, a tenth of the smaller one's
+// bounding radius).
 SavedState readSavedState(const std::string& path, const Scene& scene, double max_overlap);
+
+// The checks of a saved state once read, `path` naming its source in messages; also for a
+// state set from Python.
+void checkState(const Scene& scene, const SavedState& state, double max_overlap,
+                const std::string& path);
 
 // The same from the file's text; `path` names it in messages.
 SavedState readSavedStateText(const std::string& text, const std::string& path, const Scene& scene,

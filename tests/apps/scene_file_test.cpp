@@ -333,5 +333,49 @@ TEST_F(InScenesFolder, ThreeDimensionalSceneWithUrdfBuildsAndRuns) {
   }
 }
 
+// A mimic joint left unset starts on its coupling (gripper_mimic.urdf: q_r = 2 q_l + 0.01); one
+// set off it, or a joint past a limit, is refused at load and in a saved state, naming it.
+TEST_F(InScenesFolder, JointsStartInsideTheirLimitsAndOnTheirCouplings) {
+  const auto gripper = [](const std::string& joints) {
+    return buildSceneFile(loadSceneText(
+        "dimension: 3\nurdf:\n  - file: ../urdf/gripper_mimic.urdf\n    joints: " + joints + "\n",
+        "gripper.yaml"));
+  };
+  const Scene neutral = gripper("{}");
+  const int left = neutral.model.bodies[neutral.model.jointIndex("finger_left")].q_index;
+  const int right = neutral.model.bodies[neutral.model.jointIndex("finger_right")].q_index;
+  EXPECT_EQ(neutral.q0[right], 0.01);
+  const Scene opened = gripper("{finger_left: 0.01}");
+  EXPECT_EQ(opened.q0[right], 2.0 * 0.01 + 0.01);
+  EXPECT_NO_THROW(gripper("{finger_left: 0.01, finger_right: 0.03}"));
+
+  // a saved state: the run's own drift passes, a state 0.3 off the coupling does not
+  const auto state = [&](double q_left, double q_right) {
+    return "vector,index,value\nt,0,0.1\nq,0," + std::to_string(q_left) + "\nq,1," +
+           std::to_string(q_right) + "\nv,0,0\nv,1,0\n";
+  };
+  ASSERT_EQ(left, 0);
+  ASSERT_EQ(right, 1);
+  EXPECT_NO_THROW(readSavedStateText(state(0.01, 0.0301), "drift.csv", opened, 1e-9));
+  try {
+    readSavedStateText(state(0.01, 0.08), "offset.csv", opened, 1e-9);
+    ADD_FAILURE() << "a state off the coupling was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("offset.csv: joint 'finger_right' is at 0.08 at the "
+                                         "saved state's t = 0.1 s, but its mimic coupling"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    readSavedStateText(state(0.05, 0.11), "past.csv", opened, 1e-9);
+    ADD_FAILURE() << "a state past a limit was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("past.csv: joint 'finger_left' is at 0.05 m at the "
+                                         "saved state's t = 0.1 s, past its upper limit 0.04"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace sweep

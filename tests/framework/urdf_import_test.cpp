@@ -154,6 +154,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"mimic_fixed_leader.urdf",
                 "joint 'finger_right' <mimic>: mimic needs revolute, continuous or prismatic "
                 "joints; joint 'palm_mount' is not"},
+        BadUrdf{"mimic_cycle.urdf",
+                "joint 'finger_right' following 'finger_left': the couplings form a cycle"},
         BadUrdf{"mesh_scale_zero.urdf",
                 "link 'a' <collision>: mesh scale must be > 0 and finite in each axis, got "
                 "\"0 0 0\""},
@@ -162,6 +164,19 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<BadUrdf>& param_info) {
       return param_info.param.file.substr(0, param_info.param.file.find('.'));
     });
+
+// A bound <limit> does not write is no bound (urdfdom reads it as 0), and a joint whose bounds
+// are written equal is locked: two limits at the same value.
+TEST(UrdfImport, LimitsAreTheBoundsTheFileWrites) {
+  const Model model = loadUrdf(urdfPath("limits_as_written.urdf"));
+  std::map<std::string, std::vector<std::pair<double, double>>> limits;
+  for (const JointLimit& l : model.limits)
+    limits[model.bodies[l.body].joint_name].push_back({l.bound, l.side});
+  using Bounds = std::vector<std::pair<double, double>>;
+  EXPECT_EQ(limits["locked"], (Bounds{{0.2, 1.0}, {0.2, -1.0}}));
+  EXPECT_EQ(limits["lower_only"], (Bounds{{-0.1, 1.0}}));
+  EXPECT_EQ(limits.count("unbounded"), 0u);
+}
 
 // The URDF fuzzer's find: lead bytes that promise more bytes than the text holds made TinyXML
 // read past the end of the buffer (an AddressSanitizer heap-buffer-overflow). They are refused

@@ -259,6 +259,33 @@ TEST_P(EquationSystems, UrdfMimicJointHoldsItsRatio) {
   EXPECT_NEAR(stepper.v()[left], a * t, 1e-9);
 }
 
+// limits_as_written.urdf with gravity swinging each pendulum towards negative angles: the locked
+// one stays at 0.2 rad, the one bounded below stops at -0.1 rad, the unbounded one swings on.
+TEST_P(EquationSystems, ALockedJointStaysWhereItsEqualBoundsHoldIt) {
+  ModelBuilder builder("limits");
+  addUrdf(builder, std::string(SWEEP_TEST_DATA) + "/urdf/limits_as_written.urdf");
+  builder.setGravity(Vector3(kG, 0.0, 0.0));  // pulls each bob towards negative angles
+  const Model model = builder.build();
+  const int locked = model.dofIndex("locked"), lower_only = model.dofIndex("lower_only"),
+            unbounded = model.dofIndex("unbounded");
+  const ContactModel cmodel;
+  TimeStepper stepper(model, cmodel, settingsFor(GetParam(), 1e-3));
+  VectorX q0 = VectorX::Zero(model.nq);
+  q0[locked] = 0.2;
+  stepper.reset(0.0, q0, VectorX::Zero(model.nv));
+  double locked_off = 0.0, lower_least = 0.0, unbounded_least = 0.0;
+  for (int k = 0; k < 400; ++k) {
+    stepper.step();
+    locked_off = std::max(locked_off, std::abs(stepper.q()[locked] - 0.2));
+    lower_least = std::min(lower_least, stepper.q()[lower_only]);
+    unbounded_least = std::min(unbounded_least, stepper.q()[unbounded]);
+  }
+  EXPECT_LT(locked_off, 1e-6);
+  // an impact at the velocity level passes a bound by about h v / 2 (here 1e-3 rad)
+  EXPECT_GT(lower_least, -0.1 - 2e-3);
+  EXPECT_LT(unbounded_least, -0.5);
+}
+
 // A double pendulum (point masses 1 at the ends of unit links, 0.01 about each centre, the
 // elbow limited to +-0.1 rad) built from bodies, against the same written by its equations:
 // M(q), Coriolis and gravity in relative angles, the limits as two constraints by functions.
