@@ -36,6 +36,14 @@ std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Ve
   std::function<void(const aiNode*, const aiMatrix4x4&)> visit = [&](const aiNode* node,
                                                                      const aiMatrix4x4& parent) {
     const aiMatrix4x4 transform = parent * node->mTransformation;
+    // a node scaled to 0 on an axis flattens its parts; a mirroring one turns them inside out,
+    // which reversing their triangles undoes
+    const double det = node->mNumMeshes > 0 ? transform.Determinant() : 1.0;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det))
+      throw InputError(path + ": node '" + std::string(node->mName.C_Str()) +
+                       "': its transform flattens the mesh (determinant " + formatValue(det) +
+                       "): a node's scale must be non-zero in each axis");
+    const bool mirrored = det < 0.0;
     for (unsigned m = 0; m < node->mNumMeshes; ++m) {
       const aiMesh* part = scene->mMeshes[node->mMeshes[m]];
       const int offset = static_cast<int>(mesh->vertices.size());
@@ -46,9 +54,10 @@ std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Ve
       for (unsigned f = 0; f < part->mNumFaces; ++f) {
         const aiFace& face = part->mFaces[f];
         if (face.mNumIndices != 3) continue;  // points and lines carry no surface
-        mesh->triangles.push_back({offset + static_cast<int>(face.mIndices[0]),
-                                   offset + static_cast<int>(face.mIndices[1]),
-                                   offset + static_cast<int>(face.mIndices[2])});
+        const int first = offset + static_cast<int>(face.mIndices[0]);
+        const int second = offset + static_cast<int>(face.mIndices[mirrored ? 2 : 1]);
+        const int third = offset + static_cast<int>(face.mIndices[mirrored ? 1 : 2]);
+        mesh->triangles.push_back({first, second, third});
       }
     }
     for (unsigned c = 0; c < node->mNumChildren; ++c) visit(node->mChildren[c], transform);

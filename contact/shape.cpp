@@ -130,6 +130,67 @@ void requirePositive(const std::string& owner, const Shape& shape, const char* f
     reject(owner, shape, std::string(field) + " must be > 0 and finite, got " + show(value));
 }
 
+// A closed mesh bounds a convex solid when its triangles wind one way (each edge runs once in
+// each direction), outward (positive volume), form one sphere-like surface (V - E + F = 2) and
+// every edge is convex: a locally convex closed surface is convex (Hadamard). Tolerance 1e-6 of
+// the mesh's size, for vertices stored in single precision (STL).
+void requireConvex(const std::string& owner, const Shape& shape, std::size_t edge_count) {
+  const TriangleMesh& mesh = *shape.mesh;
+  std::map<std::pair<int, int>, int> directed;  // (from, to) -> triangle
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const std::pair<int, int> edge{mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]};
+      const auto [it, fresh] = directed.emplace(edge, static_cast<int>(t));
+      if (!fresh)
+        reject(owner, shape,
+               "convex mesh is not wound one way: edge " + std::to_string(edge.first) + " -> " +
+                   std::to_string(edge.second) + " runs the same way in triangles " +
+                   std::to_string(it->second) + " and " + std::to_string(t));
+    }
+  std::vector<bool> used(mesh.vertices.size(), false);
+  Vector3 low = Vector3::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  double volume6 = 0.0;
+  for (const auto& tri : mesh.triangles) {
+    const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
+                  &c = mesh.vertices[tri[2]];
+    volume6 += a.dot(b.cross(c));
+    for (int k = 0; k < 3; ++k) {
+      used[tri[k]] = true;
+      low = low.cwiseMin(mesh.vertices[tri[k]]);
+      high = high.cwiseMax(mesh.vertices[tri[k]]);
+    }
+  }
+  if (!(volume6 > 0.0))
+    reject(owner, shape,
+           "convex mesh winds inward (its enclosed volume is " + show(volume6 / 6.0) +
+               "): its triangles must run counter-clockwise seen from outside");
+  const long euler = static_cast<long>(std::count(used.begin(), used.end(), true)) -
+                     static_cast<long>(edge_count) + static_cast<long>(mesh.triangles.size());
+  if (euler != 2)
+    reject(owner, shape,
+           "convex mesh is not one closed surface without holes (V - E + F = " +
+               std::to_string(euler) + ", a convex surface has 2)");
+  const double tolerance = 1e-6 * (high - low).norm();
+  for (const auto& [edge, t] : directed) {
+    const int u = directed.at({edge.second, edge.first});
+    const auto& tri = mesh.triangles[t];
+    const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
+                  &c = mesh.vertices[tri[2]];
+    const Vector3 normal = (b - a).cross(c - a).normalized();
+    int across = -1;  // the corner of the neighbour off the shared edge
+    for (int k = 0; k < 3; ++k)
+      if (mesh.triangles[u][k] != edge.first && mesh.triangles[u][k] != edge.second)
+        across = mesh.triangles[u][k];
+    const double above = normal.dot(mesh.vertices[across] - a);
+    if (above > tolerance)
+      reject(owner, shape,
+             "convex mesh is not convex: at edge (" + std::to_string(edge.first) + ", " +
+                 std::to_string(edge.second) + ") vertex " + std::to_string(across) + " lies " +
+                 show(above) + " above the plane of triangle " + std::to_string(t) +
+                 "; use convex: false for a concave mesh");
+  }
+}
+
 void validateMesh(const std::string& owner, const Shape& shape, bool closed) {
   if (!shape.mesh || shape.mesh->vertices.empty() || shape.mesh->triangles.empty())
     reject(owner, shape, "mesh is empty");
@@ -154,6 +215,19 @@ void validateMesh(const std::string& owner, const Shape& shape, bool closed) {
       ++edge_use[{std::min(a, b), std::max(a, b)}];
     }
   }
+  // a triangle without area has no normal; collinear to 1e-12 of its longest edge squared
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
+                  &c = mesh.vertices[tri[2]];
+    const double longest =
+        std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+    if (!((b - a).cross(c - a).norm() > 1e-12 * longest))
+      reject(owner, shape,
+             "triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
+                 std::to_string(tri[1]) + ", " + std::to_string(tri[2]) +
+                 ") has no area: its corners are on one line");
+  }
   for (const auto& [edge, count] : edge_use) {
     if (count > 2)
       reject(owner, shape,
@@ -165,6 +239,7 @@ void validateMesh(const std::string& owner, const Shape& shape, bool closed) {
              "convex mesh is not closed: edge (" + std::to_string(edge.first) + ", " +
                  std::to_string(edge.second) + ") borders one triangle");
   }
+  if (closed) requireConvex(owner, shape, edge_use.size());
 }
 
 }  // namespace

@@ -149,6 +149,14 @@ Inertia bodyInertia(const BodySpec& body, double density, int dimension) {
     throw InputError(owner(body) + ": inertia must be > 0 and finite, got [" +
                      formatValue(moments.x()) + ", " + formatValue(moments.y()) + ", " +
                      formatValue(moments.z()) + "]");
+  // a real mass distribution has each principal moment at most the sum of the other two
+  if (dimension == 3 && body.principal_inertia)
+    for (int k = 0; k < 3; ++k)
+      if (moments[k] > (moments[(k + 1) % 3] + moments[(k + 2) % 3]) * (1.0 + 1e-9))
+        throw InputError(owner(body) + ": inertia [" + formatValue(moments.x()) + ", " +
+                         formatValue(moments.y()) + ", " + formatValue(moments.z()) +
+                         "]: the moment " + formatValue(moments[k]) +
+                         " exceeds the sum of the other two, which no mass distribution has");
   // The model refuses a mass matrix whose pivots span more than 12 orders of magnitude as
   // singular; said here, the message can name the body and its values (a mass of 1e-300 kg
   // with an inertia of 1e-5, an inertia of 1e308 with a mass of 1).

@@ -46,6 +46,14 @@ struct BodySpec {
   std::optional<double> mass;                  // default: density x volume (2D: area)
   std::optional<Vector3> principal_inertia;    // about the centroid, shape axes
   MotionSpec motion;                           // Driven
+  // What the file wrote for the orientation and the mesh, so that `export` writes them back
+  // and the exported scene builds to the same bits (a rotation matrix read back as angles
+  // would differ in the last bit). Unset for bodies a generator made.
+  std::optional<double> written_angle;    // 2D
+  std::optional<Vector3> written_rpy;     // 3D
+  std::optional<Vector3> written_normal;  // half-plane, plane
+  std::string mesh_file;                  // mesh: the resolved path
+  Vector3 mesh_scale = Vector3::Ones();
 };
 
 // An external load on a dynamic body of the bodies list, applied at the body's frame origin,
@@ -62,6 +70,7 @@ struct UrdfSpec {
   std::string prefix;
   bool floating_base = false;
   Pose base;
+  std::optional<Vector3> written_rpy;  // as the file wrote it, for `export`
   std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
   std::string material;  // of every link's collisions, unless link_materials names the link
   std::vector<std::pair<std::string, std::string>> link_materials;  // (link, material)

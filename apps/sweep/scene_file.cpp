@@ -154,7 +154,8 @@ class SceneParser {
     where.fail("no such material (define it under materials)");
   }
 
-  Shape parseShape(const YamlField& body, const std::string& type) {
+  // a mesh's file and scale are kept in `spec` for export
+  Shape parseShape(const YamlField& body, const std::string& type, BodySpec& spec) {
     auto point2 = [&](const char* key) {
       const Vector3 v = body[key].vector(2);
       return Vector2(v.x(), v.y());
@@ -198,6 +199,8 @@ class SceneParser {
       std::error_code error;
       if (fs::is_directory(file, error)) body["file"].fail("is a folder, not a mesh file");
       if (!fs::is_regular_file(file, error)) body["file"].fail("no such file (" + file + ")");
+      spec.mesh_file = file;
+      spec.mesh_scale = scale;
       std::shared_ptr<TriangleMesh> mesh;
       try {
         mesh = loadTriangleMesh(file, scale);
@@ -245,20 +248,26 @@ class SceneParser {
                        type == "capsule" || type == "mesh" || type == "plane";
     if (known && planar_type != (dim == 2))
       f["shape"].fail(std::string("is not a shape of a ") + (dim == 2 ? "2D" : "3D") + " scene");
-    b.shape = parseShape(f, type);
+    b.shape = parseShape(f, type, b);
     if (f.has("material")) {
       b.material = f["material"].text();
       requireMaterial(f["material"], b.material);
     }
     if (f.has("position")) b.pose.translation = f["position"].vector(dim);
-    if (dim == 2 && f.has("angle"))
-      b.pose.rotation = Eigen::AngleAxisd(f["angle"].number(), Vector3::UnitZ()).toRotationMatrix();
+    if (dim == 2 && f.has("angle")) {
+      b.written_angle = f["angle"].number();
+      b.pose.rotation = Eigen::AngleAxisd(*b.written_angle, Vector3::UnitZ()).toRotationMatrix();
+    }
     if (dim == 2 && f.has("rpy")) f["rpy"].fail("is for 3D scenes; use angle");
-    if (dim == 3 && f.has("rpy")) b.pose.rotation = rotationFromRpy(f["rpy"].vector(3));
+    if (dim == 3 && f.has("rpy")) {
+      b.written_rpy = f["rpy"].vector(3);
+      b.pose.rotation = rotationFromRpy(*b.written_rpy);
+    }
     if (dim == 3 && f.has("angle")) f["angle"].fail("is for 2D scenes; use rpy");
     if (isUnbounded(b.shape)) {
       if (!f.has("normal")) f["normal"].fail("is required for a " + type);
       const Vector3 given = f["normal"].vector(dim);
+      b.written_normal = given;
       const double largest = given.cwiseAbs().maxCoeff();
       if (!(largest > 0.0)) f["normal"].fail("must not be zero");
       // scaled before its norm is taken: the squares of 1e200 or 1e-200 overflow or vanish
@@ -584,7 +593,10 @@ class SceneParser {
       u.prefix = f.text("prefix", "");
       u.floating_base = f.boolean("floating", false);
       if (f.has("position")) u.base.translation = f["position"].vector(3);
-      if (f.has("rpy")) u.base.rotation = rotationFromRpy(f["rpy"].vector(3));
+      if (f.has("rpy")) {
+        u.written_rpy = f["rpy"].vector(3);
+        u.base.rotation = rotationFromRpy(*u.written_rpy);
+      }
       auto joints = [&](const char* key, std::vector<std::pair<std::string, double>>& out) {
         if (!f.has(key)) return;
         for (const std::string& name : f[key].keys()) out.emplace_back(name, f[key][name].number());
@@ -839,63 +851,6 @@ SceneFile loadSceneText(const std::string& text, const std::string& path, long m
   return sceneFrom(parseYamlText(text, path), path, {}, {}, max_count);
 }
 
-}  // namespace sweep
-
-namespace sweep {
-
-namespace {
-
-void emitVector(YAML::Emitter& out, const Vector3& v, int dimension) {
-  out << YAML::Flow << YAML::BeginSeq;
-  for (int k = 0; k < dimension; ++k) out << v[k];
-  out << YAML::EndSeq;
-}
-
-const char* shapeKeyword(ShapeType type) {
-  switch (type) {
-    case ShapeType::Disk:
-      return "disk";
-    case ShapeType::Segment:
-      return "segment";
-    case ShapeType::Polygon:
-      return "polygon";
-    case ShapeType::HalfPlane:
-      return "half_plane";
-    case ShapeType::Sphere:
-      return "sphere";
-    case ShapeType::Box:
-      return "box";
-    case ShapeType::Cylinder:
-      return "cylinder";
-    case ShapeType::Capsule:
-      return "capsule";
-    case ShapeType::HalfSpace:
-      return "plane";
-    default:
-      return nullptr;
-  }
-}
-
-// the keys parseSolver reads, in its order (stage: scheme B's, which choose their solver)
-void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s, bool stage) {
-  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
-  if (stage) out << YAML::Key << "solver" << YAML::Value << enumName(s.solver);
-  out << YAML::Key << "max_iterations" << YAML::Value << s.max_iterations;
-  out << YAML::Key << "tolerance" << YAML::Value << s.tolerance;
-  out << YAML::Key << "residual_check_interval" << YAML::Value << s.residual_check_interval;
-  out << YAML::Key << "relaxation" << YAML::Value << s.relaxation;
-  out << YAML::Key << "shuffle" << YAML::Value << s.shuffle;
-  out << YAML::Key << "seed" << YAML::Value << s.seed;
-  out << YAML::Key << "acceleration" << YAML::Value << enumName(s.acceleration);
-  if (!stage) {
-    out << YAML::Key << "local_solver" << YAML::Value << enumName(s.local_solver_3d);
-    out << YAML::Key << "parallel_rows" << YAML::Value << s.parallel_rows;
-  }
-  out << YAML::EndMap;
-}
-
-}  // namespace
-
 Scene buildSceneFile(const SceneFile& file) {
   try {
     return buildScene(file.spec);
@@ -904,201 +859,6 @@ Scene buildSceneFile(const SceneFile& file) {
     if (message.rfind(file.path + ":", 0) == 0) throw;
     throw InputError(file.path + ": " + message);
   }
-}
-
-void writeSceneFile(const SceneFile& scene, const std::string& path) {
-  const SceneSpec& spec = scene.spec;
-  const int dim = spec.dimension;
-  if (!spec.urdfs.empty())
-    throw InputError(path + ": scenes with URDF models are not exported yet");
-  YAML::Emitter out;
-  out.SetDoublePrecision(17);
-  out << YAML::BeginMap;
-  out << YAML::Key << "dimension" << YAML::Value << dim;
-  out << YAML::Key << "gravity" << YAML::Value;
-  emitVector(out, spec.gravity, dim);
-  out << YAML::Key << "materials" << YAML::Value << YAML::BeginMap;
-  for (const MaterialSpec& m : spec.materials) {
-    out << YAML::Key << m.name << YAML::Value << YAML::Flow << YAML::BeginMap;
-    if (m.density > 0.0) out << YAML::Key << "density" << YAML::Value << m.density;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndMap;
-  out << YAML::Key << "contact" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "friction" << YAML::Value << spec.default_law.friction;
-  out << YAML::Key << "restitution" << YAML::Value << spec.default_law.restitution;
-  if (spec.default_law.rolling > 0.0)
-    out << YAML::Key << "rolling_resistance" << YAML::Value << spec.default_law.rolling;
-  out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
-  for (const ContactLawSpec& l : spec.laws) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "materials" << YAML::Value << YAML::Flow
-        << YAML::BeginSeq << l.material_a << l.material_b << YAML::EndSeq;
-    out << YAML::Key << "friction" << YAML::Value << l.law.friction;
-    out << YAML::Key << "restitution" << YAML::Value << l.law.restitution;
-    if (l.law.rolling > 0.0)
-      out << YAML::Key << "rolling_resistance" << YAML::Value << l.law.rolling;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq << YAML::EndMap;
-
-  out << YAML::Key << "bodies" << YAML::Value << YAML::BeginSeq;
-  for (const BodySpec& b : spec.bodies) {
-    const char* keyword = shapeKeyword(b.shape.type);
-    if (keyword == nullptr)
-      throw InputError(path + ": body '" + b.name + "': mesh bodies are not exported yet");
-    out << YAML::Flow << YAML::BeginMap;
-    out << YAML::Key << "name" << YAML::Value << b.name;
-    out << YAML::Key << "shape" << YAML::Value << keyword;
-    const Shape& s = b.shape;
-    switch (s.type) {
-      case ShapeType::Segment:
-        out << YAML::Key << "start" << YAML::Value;
-        emitVector(out, s.segment_start, 2);
-        out << YAML::Key << "end" << YAML::Value;
-        emitVector(out, s.segment_end, 2);
-        if (s.radius > 0.0) out << YAML::Key << "radius" << YAML::Value << s.radius;
-        break;
-      case ShapeType::Polygon:
-        out << YAML::Key << "vertices" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-        for (const Vector3& v : s.vertices) emitVector(out, v, 2);
-        out << YAML::EndSeq;
-        break;
-      case ShapeType::Box:
-        out << YAML::Key << "size" << YAML::Value;
-        emitVector(out, 2.0 * s.half_extents, 3);
-        break;
-      case ShapeType::Cylinder:
-      case ShapeType::Capsule:
-        out << YAML::Key << "radius" << YAML::Value << s.radius;
-        out << YAML::Key << "length" << YAML::Value << s.length;
-        break;
-      case ShapeType::Disk:
-      case ShapeType::Sphere:
-        out << YAML::Key << "radius" << YAML::Value << s.radius;
-        break;
-      default:
-        break;
-    }
-    if (!b.material.empty()) out << YAML::Key << "material" << YAML::Value << b.material;
-    out << YAML::Key << "position" << YAML::Value;
-    emitVector(out, b.pose.translation, dim);
-    const Matrix3& r = b.pose.rotation;
-    if (isUnbounded(s)) {
-      out << YAML::Key << "normal" << YAML::Value;
-      emitVector(out, dim == 2 ? Vector3(r.col(1)) : Vector3(r.col(2)), dim);
-    } else if (dim == 2) {
-      const double angle = std::atan2(r(1, 0), r(0, 0));
-      if (angle != 0.0) out << YAML::Key << "angle" << YAML::Value << angle;
-    } else {
-      const Vector3 ypr = r.eulerAngles(2, 1, 0);
-      if (!r.isIdentity(0.0)) {
-        out << YAML::Key << "rpy" << YAML::Value;
-        emitVector(out, Vector3(ypr.z(), ypr.y(), ypr.x()), 3);
-      }
-    }
-    if (b.kind == BodySpec::Kind::Fixed) out << YAML::Key << "fixed" << YAML::Value << true;
-    if (b.kind == BodySpec::Kind::Dynamic) {
-      if (!b.velocity.isZero(0.0)) {
-        out << YAML::Key << "velocity" << YAML::Value;
-        emitVector(out, b.velocity, dim);
-      }
-      if (b.mass) out << YAML::Key << "mass" << YAML::Value << *b.mass;
-      if (b.principal_inertia) {
-        out << YAML::Key << "inertia" << YAML::Value;
-        if (dim == 2)
-          out << b.principal_inertia->z();
-        else
-          emitVector(out, *b.principal_inertia, 3);
-      }
-      if (!b.angular_velocity.isZero(0.0)) {
-        out << YAML::Key << "angular_velocity" << YAML::Value;
-        if (dim == 2)
-          out << b.angular_velocity.z();
-        else
-          emitVector(out, b.angular_velocity, 3);
-      }
-    }
-    if (b.kind == BodySpec::Kind::Driven) {
-      const MotionSpec& m = b.motion;
-      out << YAML::Key << "motion" << YAML::Value << YAML::Flow << YAML::BeginMap;
-      const char* kind = m.kind == MotionSpec::Kind::Fixed      ? "fixed"
-                         : m.kind == MotionSpec::Kind::Velocity ? "velocity"
-                                                                : "keyframes";
-      out << YAML::Key << "type" << YAML::Value << kind;
-      if (m.kind == MotionSpec::Kind::Velocity) {
-        out << YAML::Key << "velocity" << YAML::Value;
-        emitVector(out, m.linear_velocity, dim);
-        out << YAML::Key << "angular_velocity" << YAML::Value;
-        if (dim == 2)
-          out << m.angular_velocity.z();
-        else
-          emitVector(out, m.angular_velocity, 3);
-      }
-      if (m.kind == MotionSpec::Kind::Keyframes) {
-        out << YAML::Key << "times" << YAML::Value << YAML::Flow << m.times;
-        out << YAML::Key << "positions" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-        for (const Vector3& p : m.positions) emitVector(out, p, dim);
-        out << YAML::EndSeq;
-      }
-      if (std::isfinite(m.removal_time))
-        out << YAML::Key << "remove_at" << YAML::Value << m.removal_time;
-      out << YAML::EndMap;
-    }
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq;
-
-  if (!spec.loads.empty()) {
-    out << YAML::Key << "loads" << YAML::Value << YAML::BeginSeq;
-    for (const LoadSpec& l : spec.loads) {
-      out << YAML::Flow << YAML::BeginMap << YAML::Key << "body" << YAML::Value << l.body;
-      out << YAML::Key << "force" << YAML::Value;
-      emitVector(out, l.force, dim);
-      out << YAML::Key << "force_rate" << YAML::Value;
-      emitVector(out, l.force_rate, dim);
-      for (const auto& [key, torque] : {std::pair<const char*, const Vector3&>{"torque", l.torque},
-                                        {"torque_rate", l.torque_rate}}) {
-        out << YAML::Key << key << YAML::Value;
-        if (dim == 2)
-          out << torque.z();
-        else
-          emitVector(out, torque, 3);
-      }
-      out << YAML::EndMap;
-    }
-    out << YAML::EndSeq;
-  }
-
-  const SchemeSettings& s = scene.run.scheme;
-  out << YAML::Key << "scheme" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "name" << YAML::Value << enumName(s.scheme);
-  out << YAML::Key << "normal_law" << YAML::Value << enumName(s.normal_law);
-  out << YAML::Key << "tangents" << YAML::Value << enumName(s.friction.tangents);
-  out << YAML::Key << "threshold" << YAML::Value << enumName(s.friction.threshold);
-  out << YAML::Key << "threshold_updates" << YAML::Value << s.friction.threshold_updates;
-  out << YAML::Key << "open_contacts" << YAML::Value << enumName(s.friction.open_contacts);
-  emitSolver(out, "coulomb", s.coulomb, false);
-  emitSolver(out, "normal_stage", s.normal_stage, true);
-  emitSolver(out, "friction_stage", s.friction_stage, true);
-  out << YAML::Key << "screening" << YAML::Value << s.screening;
-  out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
-  if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
-  out << YAML::Key << "threads" << YAML::Value << s.threads;
-  out << YAML::EndMap;
-  out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"
-      << YAML::Value << s.h << YAML::Key << "end" << YAML::Value << scene.run.t_end << YAML::EndMap;
-  out << YAML::EndMap;
-  if (!out.good()) throw std::runtime_error("scene export: " + out.GetLastError());
-
-  const PartialFile registered(path + ".partial");
-  const std::string& partial = registered.path();
-  {
-    std::ofstream file(partial);
-    file << "# explicit scene exported by `sweep export` from " << scene.path << "\n"
-         << out.c_str() << "\n";
-    if (!file.good()) throw std::runtime_error(path + ": cannot write the file");
-  }
-  fs::rename(partial, path);
 }
 
 }  // namespace sweep

@@ -64,6 +64,39 @@ TEST(ShapeValidation, Meshes) {
   open_box->triangles.pop_back();
   EXPECT_EQ(buildError(Shape::triangleMesh(open_box)), "");
   expectRefused(Shape::convexMesh(open_box), "not closed");
+  // a closed mesh is convex only when it winds outward and bends outward at every edge
+  expectRefused(Shape::convexMesh(loadTriangleMesh(dataPath("meshes/dented_cube.stl"))),
+                "convex mesh is not convex: at edge");
+  EXPECT_EQ(buildError(Shape::triangleMesh(loadTriangleMesh(dataPath("meshes/dented_cube.stl")))),
+            "");
+  expectRefused(Shape::convexMesh(loadTriangleMesh(dataPath("meshes/inward_cube.stl"))),
+                "convex mesh winds inward");
+  expectRefused(Shape::triangleMesh(loadTriangleMesh(dataPath("meshes/collinear.stl"))),
+                "has no area");
+  // two cubes in one file: closed and convex at every edge, but two surfaces
+  auto two = loadTriangleMesh(dataPath("meshes/cube.stl"));
+  const int n = static_cast<int>(two->vertices.size());
+  const std::size_t triangles = two->triangles.size();
+  for (int i = 0; i < n; ++i) two->vertices.push_back(two->vertices[i] + Vector3(3, 0, 0));
+  for (std::size_t t = 0; t < triangles; ++t)
+    two->triangles.push_back(
+        {two->triangles[t][0] + n, two->triangles[t][1] + n, two->triangles[t][2] + n});
+  expectRefused(Shape::convexMesh(two), "V - E + F = 4");
+}
+
+// A node that mirrors its part (negative determinant) keeps it outward; one that scales an axis
+// to 0 is refused, naming the node.
+TEST(MeshIo, ColladaNodeTransformsMirrorOrAreRefused) {
+  EXPECT_EQ(buildError(Shape::convexMesh(loadTriangleMesh(dataPath("meshes/mirrored_node.dae")))),
+            "");
+  try {
+    loadTriangleMesh(dataPath("meshes/flattened_node.dae"));
+    ADD_FAILURE() << "a node scaled to 0 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("node 'flat': its transform flattens the mesh"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(MeshIo, ReadsAsciiStlAndMergesVertices) {

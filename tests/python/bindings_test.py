@@ -115,6 +115,20 @@ class Scenes(unittest.TestCase):
                 sim.set_state(t, q_new, v_new)
         np.testing.assert_array_equal(sim.q, q0)
 
+    def test_set_state_checks_joint_limits_as_a_saved_state_does(self):
+        # arm_on_table's joint2 is limited to [-0.3, 0.6] rad; it is q[1]
+        sim = sweep.Simulation(os.path.join(SOURCE, "examples/archetypes/arm_on_table.yaml"))
+        q0, v0 = np.array(sim.q), np.array(sim.v)
+        past = q0.copy()
+        past[1] = 1.0
+        with self.assertRaises(sweep.InputError) as error:
+            sim.set_state(0.0, past, v0)
+        self.assertIn("joint 'joint2' is at 1 rad", str(error.exception))
+        self.assertIn("past its upper limit 0.6", str(error.exception))
+        with self.assertRaises(sweep.InputError):
+            sim.set_state(-1.0, q0, v0)
+        np.testing.assert_array_equal(sim.q, q0)
+
     def test_input_errors_carry_the_command_line_message(self):
         bad = {"generators[0].count": -5}
         result = subprocess.run([SWEEP, "check", FUNNEL, "--set", "generators[0].count=-5"],
