@@ -159,6 +159,18 @@ class Importer {
     }
   }
 
+  // An <origin> beyond 1e6 m (the scene's coordinate bound) puts a body where no contact can
+  // be resolved and ends the first step with a state that is not finite.
+  Pose placement(const urdf::Pose& p, const std::string& where) const {
+    const Vector3 xyz(p.position.x, p.position.y, p.position.z);
+    if (!(xyz.cwiseAbs().maxCoeff() <= 1e6))
+      fail(where, "xyz [" + number(xyz.x()) + " " + number(xyz.y()) + " " + number(xyz.z()) +
+                      "] is beyond 1e+06 m");
+    const Eigen::Vector4d q(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z);
+    if (!q.allFinite() || !(q.norm() > 0.0)) fail(where, "rpy is not finite");
+    return toPose(p);
+  }
+
   [[noreturn]] void fail(const std::string& element, const std::string& reason) const {
     throw InputError(source_ + ": " + element + ": " + reason);
   }
@@ -185,7 +197,7 @@ class Importer {
     if (principal[0] + principal[1] < principal[2] * (1.0 - 1e-9))
       fail(where, "principal moments " + number(principal[0]) + ", " + number(principal[1]) + ", " +
                       number(principal[2]) + " violate the triangle inequality");
-    const Pose frame = toPose(in.origin);
+    const Pose frame = placement(in.origin, where + " <origin>");
     return Inertia{in.mass, frame.translation,
                    frame.rotation * inertia * frame.rotation.transpose()};
   }
@@ -196,8 +208,8 @@ class Importer {
       CollisionGeometry g;
       g.body = body;
       g.name = collision->name.empty() ? link.name : collision->name;
-      g.placement = toPose(collision->origin);
       const std::string where = "link '" + link.name + "' <collision>";
+      g.placement = placement(collision->origin, where + " <origin>");
       switch (collision->geometry->type) {
         case urdf::Geometry::SPHERE:
           g.type = GeometryType::Sphere;
@@ -304,7 +316,8 @@ class Importer {
     const urdf::LinkConstSharedPtr link = urdf.getLink(j.child_link_name);
     if (!link) fail("joint '" + j.name + "'", "child link '" + j.child_link_name + "' not found");
     const int body = builder_.addBody(parent, options_.name_prefix + j.name, toJoint(j),
-                                      parent_offset * toPose(j.parent_to_joint_origin_transform),
+                                      parent_offset * placement(j.parent_to_joint_origin_transform,
+                                                                "joint '" + j.name + "' <origin>"),
                                       linkInertia(*link), options_.name_prefix + link->name);
     joint_body_[j.name] = body;
     joints_[j.name] = &j;

@@ -294,6 +294,13 @@ SceneSpec powderBed(const PowderBedParameters& p) {
   return spec;
 }
 
+namespace {
+// cells of about `size` across `span`, whole and at least one (as a double: no overflow)
+double gridCount(double span, double size) {
+  return std::max(1.0, std::round(span / size));
+}
+}  // namespace
+
 void LayerWindow::validate(const std::string& owner) const {
   require(std::isfinite(x_min) && std::isfinite(x_max) && x_max > x_min, owner, "x_max", x_max,
           "must be > x_min");
@@ -303,10 +310,15 @@ void LayerWindow::validate(const std::string& owner) const {
   require(positive(gap), owner, "gap", gap, "must be > 0");
   require(positive(cell), owner, "cell", cell, "must be > 0");
   require(positive(resolution), owner, "resolution", resolution, "must be > 0");
-  const double columns = (x_max - x_min) / resolution * ((z_max - z_min) / resolution);
-  require(columns <= 1e7, owner, "resolution", resolution,
+  // counted per axis as layerMetrics does (at least one each): a product alone lets one axis
+  // of 10^12 columns through beside one of 10^-6; the height map's image takes 10^6 a side
+  const double columns_x = gridCount(x_max - x_min, resolution);
+  const double columns_z = gridCount(z_max - z_min, resolution);
+  require(columns_x <= 1e6 && columns_z <= 1e6, owner, "resolution", resolution,
+          "gives more than 10^6 height-map columns along x or z");
+  require(columns_x * columns_z <= 1e7, owner, "resolution", resolution,
           "gives more than 10^7 height-map columns");
-  const double cells = (x_max - x_min) / cell * ((z_max - z_min) / cell);
+  const double cells = gridCount(x_max - x_min, cell) * gridCount(z_max - z_min, cell);
   require(cells <= 1e7, owner, "cell", cell, "gives more than 10^7 packing cells");
 }
 
@@ -323,8 +335,8 @@ LayerMetrics layerMetrics(const std::vector<Vector3>& centers, const std::vector
                           const LayerWindow& w) {
   LayerMetrics m;
   const double res = w.resolution;
-  m.columns_x = std::max(1, static_cast<int>(std::round((w.x_max - w.x_min) / res)));
-  m.columns_z = std::max(1, static_cast<int>(std::round((w.z_max - w.z_min) / res)));
+  m.columns_x = static_cast<int>(gridCount(w.x_max - w.x_min, res));
+  m.columns_z = static_cast<int>(gridCount(w.z_max - w.z_min, res));
   const double dx = (w.x_max - w.x_min) / m.columns_x, dz = (w.z_max - w.z_min) / m.columns_z;
   m.height_map.assign(static_cast<std::size_t>(m.columns_x) * m.columns_z, 0.0f);
   std::vector<double> in_gap(m.height_map.size(), 0.0), solid(m.height_map.size(), 0.0);
@@ -376,8 +388,8 @@ LayerMetrics layerMetrics(const std::vector<Vector3>& centers, const std::vector
   m.coverage = covered / n;
 
   // packing per cell of about `cell` size, whole columns each
-  const int cx = std::max(1, static_cast<int>(std::round((w.x_max - w.x_min) / w.cell)));
-  const int cz = std::max(1, static_cast<int>(std::round((w.z_max - w.z_min) / w.cell)));
+  const int cx = static_cast<int>(gridCount(w.x_max - w.x_min, w.cell));
+  const int cz = static_cast<int>(gridCount(w.z_max - w.z_min, w.cell));
   std::vector<double> cell_gap(static_cast<std::size_t>(cx) * cz, 0.0);
   std::vector<int> cell_columns(cell_gap.size(), 0);
   for (int row = 0; row < m.columns_z; ++row)

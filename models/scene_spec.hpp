@@ -134,6 +134,8 @@ inline constexpr double kMaxStartJointViolation = 1e-9;
 inline constexpr double kMaxStateJointViolation = 1e-2;
 // The largest velocity (m/s or rad/s): at it a body crosses the coordinate bound in a second.
 inline constexpr double kMaxSpeed = 1e6;
+// The longest step (s): a body at the speed bound crosses the coordinate bound in it.
+inline constexpr double kMaxStep = kMaxCoordinate / kMaxSpeed;
 // The largest acceleration gravity or a load may give a body (m/s^2 or rad/s^2, about 1e8 g),
 // and a load's rate per second: beyond it a step of 1e-3 s alone exceeds the velocity bound.
 inline constexpr double kMaxAcceleration = 1e9;

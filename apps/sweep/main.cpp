@@ -89,7 +89,7 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int runCommand(int argc, char** argv) {
   CLI::App app{"Sweep: nonsmooth contact dynamics of multibody systems"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "sweep 0.1.0");
@@ -215,6 +215,12 @@ int main(int argc, char** argv) {
     }
     const sweep::Scene scene = sweep::buildSceneFile(file);
     file.run.scheme.validate();
+    // what `run` refuses at load, `check` and the others refuse too, with the same words
+    try {
+      sweep::stepCount(0.0, file.run.t_end, file.run.scheme.h);
+    } catch (const sweep::InputError& e) {
+      throw sweep::InputError(scene_path + ": " + e.what());
+    }
 
     if (check->parsed()) {
       describeScene(file, scene, std::cout);
@@ -264,4 +270,15 @@ int main(int argc, char** argv) {
     std::cerr << "sweep: failed: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  const int code = runCommand(argc, argv);
+  // a report lost on a full disk or a closed pipe is a failed run, not a silent success
+  std::cout.flush();
+  if (!std::cout.good()) {
+    std::cerr << "sweep: failed: cannot write to standard output\n";
+    return code == 0 ? 1 : code;
+  }
+  return code;
 }

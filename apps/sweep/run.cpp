@@ -125,6 +125,12 @@ long stepCount(double t_start, double t_end, double h) {
     throw InputError("time.step must be > 0 and finite, got " + exactNumber(h));
   if (!(t_end > 0.0) || !std::isfinite(t_end))
     throw InputError("time.end must be > 0 and finite, got " + exactNumber(t_end));
+  // at the speed bound a body would cross the coordinate bound within one longer step
+  if (h > kMaxStep)
+    throw InputError("time.step = " + exactNumber(h) + " s is longer than " +
+                     formatValue(kMaxStep) + " s: in one step a body at " + formatValue(kMaxSpeed) +
+                     " m/s would leave the " + formatValue(kMaxCoordinate) +
+                     " m that a scene may span");
   // counted in double: (t_end - t_start) / h can exceed any integer type
   const double count = (t_end - t_start) / h;
   const std::string span =

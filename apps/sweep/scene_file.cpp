@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "apps/sweep/run.hpp"
 #include "apps/sweep/signals.hpp"
 #include "apps/sweep/yaml_field.hpp"
 #include "contact/mesh_io.hpp"
@@ -84,6 +85,11 @@ class SceneParser {
     if (root.has("scheme")) parseScheme(root["scheme"]);
     if (root.has("time")) parseTime(root["time"]);
     if (root.has("output")) parseOutput(root["output"]);
+    try {  // the run's step count, as `run` will count it
+      stepCount(0.0, out_.run.t_end, out_.run.scheme.h);
+    } catch (const InputError& e) {
+      throw InputError(path_ + ": " + e.what());
+    }
     // a powder bed is judged by its layer unless the file says how
     if (powder_layer_ && !out_.run.output.layer) out_.run.output.layer = powder_layer_;
     checkNames(root);
@@ -755,6 +761,9 @@ class SceneParser {
     OutputSettings& o = out_.run.output;
     if (f.has("layer")) {
       const YamlField l = f["layer"];
+      // the metrics are of spheres over a plate, across a width along z: a 2D scene has none
+      if (out_.spec.dimension == 2)
+        l.fail("measures a 3D powder layer (spheres over a plate); a 2D scene has none");
       l.allowOnly({"x_min", "x_max", "z_min", "z_max", "plate", "gap", "cell", "resolution"});
       LayerWindow w = powder_layer_ ? *powder_layer_ : LayerWindow{};
       w.x_min = l.number("x_min", w.x_min);
@@ -766,9 +775,9 @@ class SceneParser {
       w.cell = l.number("cell", w.cell);
       w.resolution = l.number("resolution", w.resolution);
       try {
-        w.validate("layer");
+        w.validate(l.path());
       } catch (const InputError& e) {
-        throw InputError(path_ + ": " + l.path() + ": " + e.what());
+        throw InputError(path_ + ": " + e.what());
       }
       o.layer = w;
     }

@@ -248,6 +248,12 @@ class Hostile(unittest.TestCase):
 
     def test_time_windows_that_give_no_step_or_too_many(self):
         folder, path = self.scene(ONE_DISK.replace("NORMAL", "[0, 1]"))
+        # what run refuses at load, check refuses with the same words
+        for command in (["check"], ["run", "--out", os.path.join(folder, "long"), "--quiet"]):
+            r = sweep(command[0], path, *command[1:], "--set", "time.step=2",
+                      "--set", "time.end=10")
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn("scene.yaml: time.step = 2 s is longer than 1 s", r.stderr)
         for options, message in [
             (["--t-end", "1e-4"], "scene.yaml: time.end = 1e-04 s with time.step = 0.001 s: "
                                   "the end comes before the first step does"),
@@ -296,6 +302,15 @@ class Hostile(unittest.TestCase):
         self.assertIn(os.path.join(out, "summary.json") + ": exists and is not a regular file "
                       "(a folder)", r.stderr)
         self.assertEqual(sorted(os.listdir(out)), ["summary.json"])
+
+    def test_a_report_that_cannot_be_written_is_a_failure(self):
+        if not os.path.exists("/dev/full"):
+            self.skipTest("no /dev/full")
+        with open("/dev/full", "w") as full:
+            r = subprocess.run([SWEEP, "check", "small_box.yaml"], cwd=SCENES, stdout=full,
+                               stderr=subprocess.PIPE, text=True, timeout=600)
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertIn("cannot write to standard output", r.stderr)
 
     def test_snapshot_interval_far_below_the_step_writes_one_per_step(self):
         text = ONE_DISK.replace("NORMAL", "[0, 1]") + "output: {vtk_interval: 1.0e-30}\n"

@@ -154,6 +154,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadUrdf{"mimic_fixed_leader.urdf",
                 "joint 'finger_right' <mimic>: mimic needs revolute, continuous or prismatic "
                 "joints; joint 'palm_mount' is not"},
+        BadUrdf{"origin_far.urdf",
+                "joint 'shoulder' <origin>: xyz [0 0 -1e+300] is beyond 1e+06 m"},
         BadUrdf{"mimic_cycle.urdf",
                 "joint 'finger_right' following 'finger_left': the couplings form a cycle"},
         BadUrdf{"mesh_scale_zero.urdf",
