@@ -161,8 +161,9 @@ static int runCommand(int argc, char** argv) {
                    "results folder of a run with snapshots (output.vtk_interval)")
       ->required();
   view->add_option("--out", view_options.out_file, "page to write (default: RESULTS/view.html)");
-  view->add_option("--every", view_options.every, "keep every N-th snapshot (and the last)")
-      ->default_val(1);
+  view->add_option("--every", view_options.every,
+                   "keep every N-th snapshot (and the last); default: every one, thinned to "
+                   "keep the page within 500 MB");
 
   try {
     app.parse(argc, argv);
@@ -184,6 +185,9 @@ static int runCommand(int argc, char** argv) {
       sweep::requireOutputFile(export_path);
     }
     if (view->parsed()) {
+      if (view->count("--every") > 0 && view_options.every < 1)
+        throw sweep::InputError("--every: must be >= 1, got " + std::to_string(view_options.every));
+      view_options.log = &std::cerr;
       const std::string page = sweep::writeViewer(view_options);
       std::cout << "wrote " << page << "\n";
       return 0;

@@ -13,6 +13,7 @@
 
 #include "apps/sweep/run.hpp"
 #include "framework/error.hpp"
+#include "framework/memory.hpp"
 
 namespace sweep {
 
@@ -311,9 +312,70 @@ int readViewerSnapshot(const std::string& file, const std::string& text) {
   return static_cast<int>(f.balls.size() / 7 + f.lines.size() / 11 + f.polygon_sizes.size());
 }
 
+namespace {
+
+// The --every the page is built with, from the first snapshot's frame encoded: the page is
+// assembled in about four copies, and each snapshot's dynamic bodies leave two numbers for the
+// colour scales.
+int pageEvery(const ViewerOptions& options, const std::filesystem::path& dir,
+              const std::vector<std::pair<double, std::string>>& entries) {
+  const std::string file = (dir / entries.front().second).string();
+  SnapshotReader reader(file, readWhole(file, kMaxSnapshotBytes, "snapshot"));
+  std::vector<double> speeds, forces;
+  double bounds[6] = {0, 0, 0, 0, 0, 0};
+  const Frame f = frameOf(reader.read(entries.front().first), speeds, forces, bounds);
+  const double floats = static_cast<double>(f.balls.size() + f.lines.size() +
+                                            f.polygon_sizes.size() + f.polygon_vertices.size());
+  ViewerPage page;
+  page.snapshots = entries.size();
+  page.bytes_per_snapshot = 4.0 / 3.0 * 4.0 * floats + 200.0;
+  page.memory_per_snapshot = 4.0 * page.bytes_per_snapshot + 16.0 * speeds.size();
+  page.memory_limit = static_cast<double>(memoryLimitBytes());
+  return fittingEvery(page, options.every, options.log);
+}
+
+}  // namespace
+
+std::size_t keptSnapshots(std::size_t count, std::size_t every) {
+  return (count + every - 1) / every + ((count - 1) % every != 0 ? 1 : 0);
+}
+
+int fittingEvery(const ViewerPage& page, int every_given, std::ostream* log) {
+  const std::size_t count = page.snapshots;
+  const auto fits = [&](std::size_t every) {
+    const double kept = static_cast<double>(keptSnapshots(count, every));
+    return kept * page.bytes_per_snapshot <= kMaxViewerPageBytes &&
+           kept * page.memory_per_snapshot <= page.memory_limit;
+  };
+  const std::size_t given = every_given > 0 ? static_cast<std::size_t>(every_given) : 1;
+  std::size_t smallest = given;
+  while (smallest < count && !fits(smallest)) smallest = std::max(smallest + 1, smallest * 5 / 4);
+  smallest = std::max(given, std::min(smallest, count));
+  if (!fits(smallest))
+    throw InputError("one snapshot takes " + formatBytes(page.bytes_per_snapshot) +
+                     " of page and " + formatBytes(page.memory_per_snapshot) +
+                     " of memory to build: even the first and last alone pass the " +
+                     formatBytes(kMaxViewerPageBytes) + " a browser opens or the " +
+                     formatBytes(page.memory_limit) + " this process may use");
+  // the smallest that fits, not one of the 5/4 steps past it
+  while (smallest > given && fits(smallest - 1)) --smallest;
+  const std::string sizes =
+      std::to_string(count) + " snapshots of " + formatBytes(page.bytes_per_snapshot) + " each";
+  if (every_given > 0 && smallest != given)
+    throw InputError("--every " + std::to_string(every_given) + ": " + sizes +
+                     " make a page past the " + formatBytes(kMaxViewerPageBytes) +
+                     " a browser opens or past the " + formatBytes(page.memory_limit) +
+                     " this process may use; --every " + std::to_string(smallest) + " fits");
+  if (smallest > 1 && log)
+    *log << "view: keeping every " << smallest << "-th snapshot (" << keptSnapshots(count, smallest)
+         << " of " << sizes << ") so that the page stays within "
+         << formatBytes(kMaxViewerPageBytes) << " and this process's memory; --every sets it\n";
+  return static_cast<int>(smallest);
+}
+
 std::string writeViewer(const ViewerOptions& options) {
   namespace fs = std::filesystem;
-  if (options.every < 1)
+  if (options.every < 0)
     throw InputError("--every: must be >= 1, got " + std::to_string(options.every));
   const fs::path dir(options.results_dir);
   const fs::path collection = dir / "snapshots.pvd";
@@ -366,6 +428,7 @@ std::string writeViewer(const ViewerOptions& options) {
                        ": not found; the viewer inlines three.js from Debian's libjs-three "
                        "(apt-get install libjs-three) or from $SWEEP_THREE_DIR");
 
+  const int every = pageEvery(options, dir, entries);
   std::vector<double> speeds, forces;
   double bounds[6] = {
       std::numeric_limits<double>::infinity(),  std::numeric_limits<double>::infinity(),
@@ -379,7 +442,7 @@ std::string writeViewer(const ViewerOptions& options) {
   frames << "[";
   int kept = 0;
   for (std::size_t e = 0; e < entries.size(); ++e) {
-    if (e % options.every != 0 && e + 1 != entries.size()) continue;
+    if (e % every != 0 && e + 1 != entries.size()) continue;
     const fs::path file = dir / entries[e].second;
     SnapshotReader reader(file.string(), readWhole(file, kMaxSnapshotBytes, "snapshot"));
     const Snapshot s = reader.read(entries[e].first);
