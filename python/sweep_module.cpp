@@ -104,6 +104,7 @@ SceneFile loadScene(const py::object& scene, const std::optional<py::dict>& over
     file.run.t_end = *t_end;
   }
   file.run.scheme.validate();
+  stepCount(0.0, file.run.t_end, file.run.scheme.h);  // as `sweep check` and `run` count it
   return file;
 }
 
@@ -635,6 +636,9 @@ PYBIND11_MODULE(sweep, m) {
             file.run.scheme.h = dt;
             file.run.t_end = t_end;
             file.run.scheme.validate();
+            stepCount(0.0, t_end, dt);
+            // the start checked as set_state checks a state
+            checkState(*scene, SavedState{0.0, q0, v0}, -1.0, "from_equations: q0, v0");
             return std::make_unique<Simulation>(std::move(file), std::move(scene));
           },
           py::arg("systems"), py::arg("constraints") = std::vector<ConstraintFunction>{},

@@ -235,6 +235,13 @@ SavedState readSavedState(const std::string& path, const Scene& scene, double ma
 void checkState(const Scene& scene, const SavedState& state, double max_overlap,
                 const std::string& path) {
   const Model& model = scene.model;
+  // every entry, a system's by its equations too (the bounds below go body by body)
+  for (const auto& [name, values] :
+       {std::pair<const char*, const VectorX&>{"q", state.q}, {"v", state.v}})
+    for (Eigen::Index i = 0; i < values.size(); ++i)
+      if (!std::isfinite(values[i]))
+        throw InputError(path + ": " + name + "[" + std::to_string(i) +
+                         "] = " + exactNumber(values[i]) + " is not finite");
   if (!(state.t >= 0.0))
     throw InputError(path + ": t = " + exactNumber(state.t) +
                      " s is before the scene's start (t = 0)");

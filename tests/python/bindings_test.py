@@ -215,6 +215,21 @@ class Equations(unittest.TestCase):
                                          bilateral=True)],
                 q0=[0.0, 0.0], v0=[0.0, 0.0], dt=1e-3)
 
+    def test_from_equations_checks_its_start_and_step_as_a_scene_file_is(self):
+        bob = sweep.System("bob", 2, 2, mass=lambda q: np.eye(2),
+                           forces=lambda t, q, v: np.array([0.0, -9.81]))
+        for q0, v0, dt, message in (([float("nan"), 0.0], [0.0, 0.0], 1e-3,
+                                     "q[0] = nan is not finite"),
+                                    ([0.0, 0.0], [0.0, float("inf")], 1e-3,
+                                     "v[1] = inf is not finite"),
+                                    ([0.0, 0.0], [0.0, 0.0], 5.0, "is longer than 1 s")):
+            with self.assertRaises(sweep.InputError) as error:
+                sweep.Simulation.from_equations([bob], [], q0=q0, v0=v0, dt=dt, t_end=10.0)
+            self.assertIn(message, str(error.exception))
+        with self.assertRaises(sweep.InputError) as error:
+            sweep.Simulation(FUNNEL, dt=2.0)
+        self.assertIn("time.step = 2 s is longer than 1 s", str(error.exception))
+
     def test_a_system_beside_a_scene_body_moves_as_it_does(self):
         # V4's scene (a disk rolling down a slope), and beside its body the same disk as
         # q = (x, y, theta), M = diag(m, m, I), the slope a constraint by functions: both roll
