@@ -17,7 +17,7 @@ void require(bool ok, const std::string& owner, const std::string& field, double
              const std::string& rule) {
   if (ok) return;
   std::ostringstream s;
-  s << owner << ": " << field << ": " << rule << ", got " << value;
+  s << owner << "." << field << ": " << rule << ", got " << value;
   throw InputError(s.str());
 }
 
@@ -61,8 +61,7 @@ BodySpec box(const std::string& name, const Vector3& center, const Vector3& size
 
 }  // namespace
 
-void PowderBedParameters::validate() const {
-  const std::string o = "powder_bed";
+void PowderBedParameters::validate(const std::string& o) const {
   require(count >= 1, o, "count", count, "must be >= 1");
   require(copies_across >= 1 && copies_across <= 1000, o, "copies_across", copies_across,
           "must be in [1, 1000]");
@@ -161,18 +160,19 @@ std::vector<double> powderDiameters(const PowderBedParameters& p) {
   return d;
 }
 
-long roughPlateSpheres(const PowderBedParameters& p, const std::vector<double>& diameters) {
+long roughPlateSpheres(const PowderBedParameters& p, const std::vector<double>& diameters,
+                       const std::string& owner) {
   const double largest = *std::max_element(diameters.begin(), diameters.end());
   const double pitch = largest * p.lattice_spacing;
-  require(p.heap_length / pitch < 1e6 && p.width / pitch < 1e6, "powder_bed", "heap_length",
-          p.heap_length, "and width must hold fewer than 10^6 grains across");
-  require(p.heap_length >= pitch && p.width >= pitch, "powder_bed", "heap_length", p.heap_length,
+  require(p.heap_length / pitch < 1e6 && p.width / pitch < 1e6, owner, "heap_length", p.heap_length,
+          "and width must hold fewer than 10^6 grains across");
+  require(p.heap_length >= pitch && p.width >= pitch, owner, "heap_length", p.heap_length,
           "must hold one lattice pitch (and width too)");
   if (!p.rough_plate) return 0;
   const double d = std::accumulate(diameters.begin(), diameters.end(), 0.0) / diameters.size();
   const double rows = std::floor(p.length / d) + 1.0;
   const double across = std::max(1.0, std::floor(p.width / d)) * p.copies_across + 2.0;
-  require(rows * across < 1e6, "powder_bed", "length", p.length,
+  require(rows * across < 1e6, owner, "length", p.length,
           "gives a rough plate of more than 10^6 spheres (" + formatValue(rows) + " x " +
               formatValue(across) + " of the mean diameter " + formatValue(d) + ")");
   return static_cast<long>(rows * across);

@@ -47,7 +47,8 @@ struct PowderBedParameters {
   int copies_across = 1;
   std::uint32_t seed = 1;
 
-  void validate() const;  // InputError naming the parameter
+  // InputError "<owner>.<parameter>: rule, got value"
+  void validate(const std::string& owner = "powder_bed") const;
   double spreadEnd() const { return settle_time + travel / speed; }
   double period() const { return width * copies_across; }  // the periodic width along z
 };
@@ -70,7 +71,8 @@ std::vector<double> powderDiameters(const PowderBedParameters& parameters);
 // The frozen spheres a rough plate adds (0 for a flat plate), from the powder's diameters,
 // after the checks that the heap's lattice and the plate fit (InputError naming the field):
 // cheap, so that a scene can plan its memory before powderBed builds anything.
-long roughPlateSpheres(const PowderBedParameters& parameters, const std::vector<double>& diameters);
+long roughPlateSpheres(const PowderBedParameters& parameters, const std::vector<double>& diameters,
+                       const std::string& owner = "powder_bed");
 
 // The scene: plate (and the frozen spheres of a rough plate), end walls, blade or roller,
 // temporary walls around the heap, the spheres on a jittered lattice, the periodic width.

@@ -200,6 +200,17 @@ void rejectOverlaps(const Scene& scene, double t, const VectorX& q, const Vector
 
 namespace {
 
+// The model's body moved by joint `joint` of URDF u, or InputError naming the scene's field and
+// the file that lacks it (Model::jointIndex knows neither).
+int urdfJointBody(const SceneSpec& spec, const Model& model, std::size_t u, const char* field,
+                  const std::string& joint) {
+  const UrdfSpec& urdf = spec.urdfs[u];
+  for (std::size_t i = 0; i < model.bodies.size(); ++i)
+    if (model.bodies[i].joint_name == urdf.prefix + joint) return static_cast<int>(i);
+  throw InputError(spec.source + ": urdf[" + std::to_string(u) + "]." + field + "." + joint + ": " +
+                   urdf.file + " has no joint named '" + joint + "'");
+}
+
 // The loads as generalized forces. A planar body's velocities are (x, y rates of its origin,
 // spin), a free body's (its origin's world velocity, body-frame angular velocity), so a force
 // at the origin enters as it is and a torque as its z (2D) or its body-frame components.
@@ -212,7 +223,7 @@ std::function<void(double, const VectorX&, const VectorX&, VectorX&)> sceneLoads
   std::vector<Spring> springs;
   for (std::size_t u = 0; u < spec.urdfs.size(); ++u)
     for (const UrdfSpec::JointSpring& s : spec.urdfs[u].joint_springs) {
-      const Body& b = model.bodies[model.jointIndex(spec.urdfs[u].prefix + s.joint)];
+      const Body& b = model.bodies[urdfJointBody(spec, model, u, "joint_springs", s.joint)];
       if (b.joint.nv() != 1)
         throw InputError(spec.source + ": urdf[" + std::to_string(u) + "].joint_springs." +
                          s.joint + ": the joint has " + std::to_string(b.joint.nv()) +
@@ -394,19 +405,21 @@ Scene buildScene(const SceneSpec& spec) {
   for (std::size_t u = 0; u < spec.urdfs.size(); ++u) {
     const UrdfSpec& urdf = spec.urdfs[u];
     for (const auto& [joint, value] : urdf.joint_positions) {
-      const int index = model.jointIndex(urdf.prefix + joint);
+      const int index = urdfJointBody(spec, model, u, "joints", joint);
       const Body& b = model.bodies[index];
       if (b.joint.nq() != 1)
-        throw InputError(spec.source + ": joint '" + joint + "' has " +
-                         std::to_string(b.joint.nq()) + " coordinates; set it by its state");
+        throw InputError(spec.source + ": urdf[" + std::to_string(u) + "].joints." + joint +
+                         ": the joint has " + std::to_string(b.joint.nq()) +
+                         " coordinates; set it by its state (--initial-state, set_state)");
       scene.q0[b.q_index] = value;
       joint_given[index] = true;
     }
     for (const auto& [joint, value] : urdf.joint_velocities) {
-      const Body& b = model.bodies[model.jointIndex(urdf.prefix + joint)];
+      const Body& b = model.bodies[urdfJointBody(spec, model, u, "velocities", joint)];
       if (b.joint.nv() != 1)
-        throw InputError(spec.source + ": joint '" + joint + "' has " +
-                         std::to_string(b.joint.nv()) + " velocities; set it by its state");
+        throw InputError(spec.source + ": urdf[" + std::to_string(u) + "].velocities." + joint +
+                         ": the joint has " + std::to_string(b.joint.nv()) +
+                         " velocities; set it by its state (--initial-state, set_state)");
       scene.v0[b.v_index] = value;
     }
     const auto [first, end] = urdf_bodies[u];

@@ -575,10 +575,12 @@ class SceneParser {
     // the cheap checks and the rough plate's size before anything is built
     long plate_spheres = 0;
     try {
-      p.validate();
-      plate_spheres = roughPlateSpheres(p, powderDiameters(p));
+      p.validate(g.path());
+      plate_spheres = roughPlateSpheres(p, powderDiameters(p), g.path());
     } catch (const InputError& e) {
-      throw InputError(path_ + ": " + g.path() + ": " + e.what());
+      const std::string message = e.what();
+      throw InputError(path_ + ": " + (message.rfind(g.path(), 0) == 0 ? "" : g.path() + ": ") +
+                       message);
     }
     if (plate_spheres > 0) planBodies(g["plate"], plate_spheres);
     const SceneSpec bed = addGenerated(g, [&] { return powderBed(p); });
