@@ -122,6 +122,11 @@ void ContactModelBuilder::addModelCollisions(int material, const std::vector<int
         shape = Shape::capsule(c.radius, c.length);
         break;
       case GeometryType::Mesh:
+        if (!c.missing_mesh.empty())
+          throw InputError(
+              "body '" + model_.bodies[c.body].name + "', shape '" + name +
+              "' (mesh): " + c.missing_mesh +
+              " (urdf[].missing_meshes: skip or inertia_box loads the robot without it)");
         try {
           shape = Shape::triangleMesh(loadTriangleMesh(c.mesh_file, c.mesh_scale));
         } catch (const InputError& e) {

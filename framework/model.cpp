@@ -378,6 +378,7 @@ Model ModelBuilder::build() const {
     model.collisions.push_back(g);
   }
   model.driven_bodies = driven_;
+  model.notes = notes_;
 
   // Each tree's mass matrix is a dense nv x nv block, held about four times (the block and its
   // factor, in this check's Data and in the time stepper's): a chain of 10^5 links would ask

@@ -100,6 +100,9 @@ struct CollisionGeometry {
   Vector3 box_size = Vector3::Zero();  // full edge lengths
   std::string mesh_file;
   Vector3 mesh_scale = Vector3::Ones();
+  // why the mesh file the URDF names was not found (empty: it was); the geometry is then a
+  // box standing for it, or still a mesh that the contact layer refuses with this reason
+  std::string missing_mesh;
 };
 
 // A body without degrees of freedom whose pose and velocity are prescribed functions of time
@@ -145,6 +148,9 @@ struct Model {
   std::vector<EquationSystem> systems;  // their components follow the body trees'
   std::vector<ConstraintFunction> constraints;
   std::vector<JointCoupling> couplings;  // also in `constraints`, as bilateral functions
+  // what an import changed from its file (a missing mesh left out or replaced), for the run's
+  // description
+  std::vector<std::string> notes;
   Vector3 gravity = Vector3(0, 0, -9.81);
   int nq = 0;
   int nv = 0;
@@ -179,6 +185,7 @@ class ModelBuilder {
   // q[follower] = multiplier * q[leader] + offset between two 1-dof joints (a URDF <mimic>):
   // a bilateral constraint by functions, after those added by addConstraint.
   void addJointCoupling(int follower, int leader, double multiplier, double offset);
+  void addNote(const std::string& note) { notes_.push_back(note); }
   int bodyCount() const { return static_cast<int>(bodies_.size()); }
 
   // Orders bodies component by component (depth-first), assigns coordinate indices and checks
@@ -194,6 +201,7 @@ class ModelBuilder {
   std::vector<EquationSystem> systems_;
   std::vector<ConstraintFunction> constraints_;
   std::vector<JointCoupling> couplings_;  // body indices of this builder
+  std::vector<std::string> notes_;
   Vector3 gravity_ = Vector3(0, 0, -9.81);
 };
 

@@ -11,8 +11,10 @@
 #include <fstream>
 #include <sstream>
 
+#include <cstdlib>
 #include <limits>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include "framework/error.hpp"
@@ -235,12 +237,20 @@ class Importer {
         case urdf::Geometry::MESH: {
           const auto& m = static_cast<const urdf::Mesh&>(*collision->geometry);
           g.type = GeometryType::Mesh;
-          g.mesh_file = resolveMesh(m.filename);
           g.mesh_scale = Vector3(m.scale.x, m.scale.y, m.scale.z);
           if (!(g.mesh_scale.minCoeff() > 0.0) || !g.mesh_scale.allFinite())
             fail(where, "mesh scale must be > 0 and finite in each axis, got \"" +
                             number(m.scale.x) + " " + number(m.scale.y) + " " + number(m.scale.z) +
                             "\"");
+          g.mesh_file = resolveMesh(m.filename, g.missing_mesh);
+          if (!g.missing_mesh.empty() && options_.missing_meshes != MissingMeshes::Refuse) {
+            const bool boxed =
+                options_.missing_meshes == MissingMeshes::InertiaBox && inertiaBox(link, g);
+            builder_.addNote(
+                source_ + ": link '" + link.name + "': mesh " + g.missing_mesh +
+                (boxed ? "; its inertia box collides instead" : "; the link collides without it"));
+            if (!boxed) continue;
+          }
           break;
         }
       }
@@ -248,13 +258,117 @@ class Importer {
     }
   }
 
-  std::string resolveMesh(const std::string& name) const {
-    const std::string file_scheme = "file://";
+  // The file a mesh's name points to: file:// stripped, package://PKG/... in the package's
+  // folder, a relative name from the URDF's folder. `missing` says why when there is no file.
+  std::string resolveMesh(const std::string& name, std::string& missing) {
+    namespace fs = std::filesystem;
+    const std::string file_scheme = "file://", package_scheme = "package://";
     std::string path = name.rfind(file_scheme, 0) == 0 ? name.substr(file_scheme.size()) : name;
-    // package:// paths need a ROS package index; keep them for the contact layer to resolve
-    if (path.rfind("package://", 0) == 0 || base_dir_.empty()) return path;
-    const std::filesystem::path p(path);
-    return p.is_absolute() ? path : (std::filesystem::path(base_dir_) / p).string();
+    if (path.rfind(package_scheme, 0) == 0) {
+      const std::string rest = path.substr(package_scheme.size());
+      const std::string package = rest.substr(0, rest.find('/'));
+      const std::optional<fs::path> root = findPackage(package);
+      if (!root) {
+        missing = "'" + name + "': package '" + package + "' not found in " + packageSearch() +
+                  "; add the folder that holds it to the scene's urdf[].package_paths";
+        return path;
+      }
+      path = (*root / rest.substr(std::min(rest.size(), package.size() + 1))).string();
+    } else if (!base_dir_.empty() && !fs::path(path).is_absolute()) {
+      path = (fs::path(base_dir_) / path).string();
+    }
+    std::error_code error;
+    if (!fs::is_regular_file(path, error))
+      missing = path + ": mesh file not found" +
+                (path != name ? " (the URDF names '" + name + "')" : std::string());
+    return path;
+  }
+
+  // package_paths, then $ROS_PACKAGE_PATH: a folder named `package` holding package.xml, at
+  // most four levels down, the shallowest (then the first by name) when several are; then the
+  // URDF's folder and its ancestors: one named `package` (a description folder without ROS).
+  std::optional<std::filesystem::path> findPackage(const std::string& package) {
+    namespace fs = std::filesystem;
+    if (package.empty()) return std::nullopt;
+    const auto known = packages_.find(package);
+    if (known != packages_.end()) return known->second;
+    std::optional<fs::path> found;
+    for (const std::string& root : packageRoots()) {
+      std::error_code error;
+      if (!fs::is_directory(root, error)) continue;
+      std::pair<int, std::string> best{5, ""};
+      const auto consider = [&](const fs::path& folder, int depth) {
+        if (folder.filename() == package && fs::is_regular_file(folder / "package.xml", error))
+          best = std::min(best, std::pair<int, std::string>{depth, folder.string()});
+      };
+      consider(fs::path(root), 0);
+      std::size_t visited = 0;
+      for (fs::recursive_directory_iterator
+               it(root, fs::directory_options::skip_permission_denied, error),
+           end;
+           !error && it != end && ++visited < 100000; it.increment(error)) {
+        if (it.depth() >= 3 || it->path().filename().string().rfind('.', 0) == 0)
+          it.disable_recursion_pending();
+        if (it->is_directory(error)) consider(it->path(), it.depth() + 1);
+      }
+      if (!best.second.empty()) {
+        found = fs::path(best.second);
+        break;
+      }
+    }
+    if (!found && !base_dir_.empty())
+      for (fs::path at = fs::absolute(base_dir_).lexically_normal(); !at.empty();
+           at = at.parent_path()) {
+        if (at.filename() == package) {
+          found = at;
+          break;
+        }
+        if (at == at.parent_path()) break;
+      }
+    packages_[package] = found;
+    return found;
+  }
+
+  std::vector<std::string> packageRoots() const {
+    std::vector<std::string> roots = options_.package_paths;
+    if (const char* ros = std::getenv("ROS_PACKAGE_PATH")) {
+      std::stringstream list(ros);
+      for (std::string entry; std::getline(list, entry, ':');)
+        if (!entry.empty()) roots.push_back(entry);
+    }
+    return roots;
+  }
+
+  std::string packageSearch() const {
+    std::string where = "package_paths [";
+    for (std::size_t k = 0; k < options_.package_paths.size(); ++k)
+      where += (k ? ", " : "") + options_.package_paths[k];
+    const char* ros = std::getenv("ROS_PACKAGE_PATH");
+    return where + "], ROS_PACKAGE_PATH (" + (ros ? std::string(ros) : "unset") +
+           ") or the URDF's folders";
+  }
+
+  // The box of the link's mass and inertia, at its inertial frame along its principal axes:
+  // edges a^2 = 6 (I2 + I3 - I1) / m and so on. False for a massless link.
+  bool inertiaBox(const urdf::Link& link, CollisionGeometry& g) const {
+    if (!link.inertial || !(link.inertial->mass > 0.0)) return false;
+    const urdf::Inertial& in = *link.inertial;
+    Matrix3 inertia;
+    inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+    const Eigen::SelfAdjointEigenSolver<Matrix3> eig(inertia);
+    const Vector3 I = eig.eigenvalues();
+    Vector3 edges;
+    for (int k = 0; k < 3; ++k)
+      edges[k] = std::sqrt(std::max(0.0, 6.0 * (I[(k + 1) % 3] + I[(k + 2) % 3] - I[k]) / in.mass));
+    if (!(edges.minCoeff() > 0.0)) edges = edges.cwiseMax(1e-3 * edges.maxCoeff());
+    Matrix3 axes = eig.eigenvectors();
+    if (axes.determinant() < 0.0) axes.col(2) = -axes.col(2);
+    const Pose frame = toPose(in.origin);
+    g.type = GeometryType::Box;
+    g.box_size = edges;
+    g.placement.translation = frame.translation;
+    g.placement.rotation = frame.rotation * axes;
+    return true;
   }
 
   Joint toJoint(const urdf::Joint& j) const {
@@ -357,7 +471,9 @@ class Importer {
   };
   std::vector<Mimic> mimics_;
   std::map<std::string, LimitAttributes> limit_attributes_;
-  std::map<std::string, int> joint_body_;  // builder body of each joint's child link
+  std::map<std::string, int> joint_body_;
+  std::map<std::string, std::optional<std::filesystem::path>>
+      packages_;  // found, by name  // builder body of each joint's child link
   std::map<std::string, const urdf::Joint*> joints_;
 };
 

@@ -3,10 +3,21 @@
 // joint becomes the joint of its child link. Orderings and the floating-base convention are in
 // docs/conventions.md.
 #include <string>
+#include <vector>
 
+#include "framework/enum_names.hpp"
 #include "framework/model.hpp"
 
 namespace sweep {
+
+enum class MissingMeshes { Refuse, Skip, InertiaBox };
+
+template <>
+struct EnumNames<MissingMeshes> {
+  static constexpr EnumName<MissingMeshes> table[] = {{MissingMeshes::Refuse, "refuse"},
+                                                      {MissingMeshes::Skip, "skip"},
+                                                      {MissingMeshes::InertiaBox, "inertia_box"}};
+};
 
 struct UrdfOptions {
   // attach the root link to the world with a floating joint (else a fixed one); ignored when
@@ -14,6 +25,14 @@ struct UrdfOptions {
   bool floating_base = false;
   Pose base_placement;      // root joint frame in world
   std::string name_prefix;  // prepended to body and joint names (several instances per scene)
+  // Folders searched for the package of a `package://PKG/...` mesh, first to last, before
+  // $ROS_PACKAGE_PATH and the URDF file's own ancestors: a folder PKG holding package.xml, at
+  // most four levels below one of them (as ROS's crawl finds packages).
+  std::vector<std::string> package_paths;
+  // A collision mesh whose file is missing: refused (naming it), left out, or replaced by the
+  // box with the link's mass and inertia at its inertial frame. What was replaced is kept in
+  // CollisionGeometry::missing_mesh for the run's description.
+  MissingMeshes missing_meshes = MissingMeshes::Refuse;
 };
 
 // Adds the URDF's tree to a builder; returns the builder index of the root body.

@@ -338,6 +338,8 @@ Scene buildScene(const SceneSpec& spec) {
     options.floating_base = urdf.floating_base;
     options.base_placement = urdf.base;
     options.name_prefix = urdf.prefix;
+    options.package_paths = urdf.package_paths;
+    options.missing_meshes = urdf.missing_meshes;
     const int first = mb.bodyCount();
     addUrdf(mb, urdf.file, options);
     urdf_bodies.emplace_back(first, mb.bodyCount());

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "contact/contact_model.hpp"
+#include "framework/urdf_import.hpp"
 #include "models/granular.hpp"
 
 namespace sweep {
@@ -70,7 +71,9 @@ struct UrdfSpec {
   std::string prefix;
   bool floating_base = false;
   Pose base;
-  std::optional<Vector3> written_rpy;  // as the file wrote it, for `export`
+  std::optional<Vector3> written_rpy;      // as the file wrote it, for `export`
+  std::vector<std::string> package_paths;  // resolved; UrdfOptions::package_paths
+  MissingMeshes missing_meshes = MissingMeshes::Refuse;
   std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
   std::string material;  // of every link's collisions, unless link_materials names the link
   std::vector<std::pair<std::string, std::string>> link_materials;  // (link, material)

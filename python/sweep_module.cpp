@@ -689,12 +689,15 @@ PYBIND11_MODULE(sweep, m) {
   py::class_<Dynamics>(m, "Model", "The Lagrangian layer of a multibody model.")
       .def_static(
           "from_urdf",
-          [](const std::string& path, bool floating_base) {
+          [](const std::string& path, bool floating_base,
+             const std::vector<std::string>& package_paths) {
             UrdfOptions options;
             options.floating_base = floating_base;
+            options.package_paths = package_paths;
             return Dynamics(loadUrdf(path, options));
           },
-          py::arg("path"), py::arg("floating_base") = false)
+          py::arg("path"), py::arg("floating_base") = false,
+          py::arg("package_paths") = std::vector<std::string>{})
       .def_property_readonly("nq", [](const Dynamics& d) { return d.model().nq; })
       .def_property_readonly("nv", [](const Dynamics& d) { return d.model().nv; })
       .def_property_readonly("gravity", [](const Dynamics& d) { return d.model().gravity; })

@@ -62,6 +62,12 @@ inline Model mixedBodies() {
   return b.build();
 }
 
+inline UrdfOptions floatingBase() {
+  UrdfOptions options;
+  options.floating_base = true;
+  return options;
+}
+
 inline std::vector<NamedModel> allModels() {
   DoublePendulumParameters p;
   p.tip_inertia = 0.01;
@@ -72,8 +78,8 @@ inline std::vector<NamedModel> allModels() {
           {"planar_pendulum", planarWithPendulum()},
           {"mixed", mixedBodies()},
           {"urdf_arm6", loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/arm6.urdf")},
-          {"urdf_floating", loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/floating_base.urdf",
-                                     UrdfOptions{true, Pose{}, ""})},
+          {"urdf_floating",
+           loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/floating_base.urdf", floatingBase())},
           {"urdf_planar_floating",
            loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/planar_and_floating_joints.urdf")}};
 }

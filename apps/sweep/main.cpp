@@ -28,6 +28,7 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
       << " with a constant mass block, never rebuilt), " << model.driven_bodies.size()
       << " driven, nq = " << model.nq << ", nv = " << model.nv << "\n";
   out << "  " << sweep::describe(scene.cmodel) << "\n";
+  for (const std::string& note : model.notes) out << "  note: " << note << "\n";
   const sweep::SchemeSettings& s = file.run.scheme;
   // auto as what it resolves to here (convex_stages.cpp: Newton on 2D problems)
   auto stageSolverShown = [&](sweep::StageSolver solver) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "apps/sweep/scene_file.hpp"
 #include "apps/sweep/signals.hpp"
@@ -88,10 +89,17 @@ void emitOrientation(YAML::Emitter& out, const BodySpec& b, int dim) {
   }
 }
 
-void emitUrdf(YAML::Emitter& out, const UrdfSpec& u, const std::string& file) {
+void emitUrdf(YAML::Emitter& out, const UrdfSpec& u, const std::string& file,
+              const std::function<std::string(const std::string&)>& fromExport) {
   out << YAML::BeginMap;
   out << YAML::Key << "file" << YAML::Value << file;
   if (!u.prefix.empty()) out << YAML::Key << "prefix" << YAML::Value << u.prefix;
+  if (!u.package_paths.empty()) {
+    out << YAML::Key << "package_paths" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const std::string& folder : u.package_paths) out << fromExport(folder);
+    out << YAML::EndSeq;
+  }
+  out << YAML::Key << "missing_meshes" << YAML::Value << enumName(u.missing_meshes);
   out << YAML::Key << "floating" << YAML::Value << u.floating_base;
   out << YAML::Key << "position" << YAML::Value;
   emitVector(out, u.base.translation, 3);
@@ -322,7 +330,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
 
   if (!spec.urdfs.empty()) {
     out << YAML::Key << "urdf" << YAML::Value << YAML::BeginSeq;
-    for (const UrdfSpec& u : spec.urdfs) emitUrdf(out, u, fromExport(u.file));
+    for (const UrdfSpec& u : spec.urdfs) emitUrdf(out, u, fromExport(u.file), fromExport);
     out << YAML::EndSeq;
   }
 

@@ -594,8 +594,21 @@ class SceneParser {
     for (std::size_t i = 0; i < list.size(); ++i) {
       const YamlField f = list.at(i);
       f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
-                   "material", "link_materials", "joint_springs"});
+                   "material", "link_materials", "joint_springs", "package_paths",
+                   "missing_meshes"});
       UrdfSpec u;
+      if (f.has("package_paths")) {
+        const YamlField paths = f["package_paths"];
+        paths.requireSequence();
+        for (std::size_t k = 0; k < paths.size(); ++k) {
+          const std::string folder = resolve(path_, paths.at(k).text());
+          std::error_code error;
+          if (!fs::is_directory(folder, error))
+            paths.at(k).fail("is not a folder (" + folder + ")");
+          u.package_paths.push_back(folder);
+        }
+      }
+      u.missing_meshes = f.choice("missing_meshes", MissingMeshes::Refuse);
       u.file = resolve(path_, f["file"].text());
       if (!fs::is_regular_file(u.file)) f["file"].fail("no such file (" + u.file + ")");
       u.prefix = f.text("prefix", "");

@@ -274,6 +274,22 @@ TEST(SceneFile, EveryExampleExportsToTheSameRun) {
   }
 }
 
+// package_paths and missing_meshes reach the importer, relative to the scene, and export
+// writes them back.
+TEST_F(InScenesFolder, UrdfPackagePathsAndMissingMeshesReachTheImporter) {
+  const SceneFile file = loadSceneFile("urdf_package.yaml");
+  const Scene scene = buildSceneFile(file);
+  ASSERT_EQ(scene.model.collisions.size(), 1u);
+  EXPECT_EQ(scene.model.collisions[0].type, GeometryType::Box);
+  ASSERT_EQ(scene.model.notes.size(), 1u);
+  EXPECT_NE(scene.model.notes[0].find("its inertia box collides instead"), std::string::npos);
+  const std::string exported = ::testing::TempDir() + "/urdf_package_export.yaml";
+  writeSceneFile(file, exported);
+  const Scene back = buildSceneFile(loadSceneFile(exported));
+  ASSERT_EQ(back.model.collisions.size(), 1u);
+  EXPECT_EQ(back.model.collisions[0].box_size, scene.model.collisions[0].box_size);
+}
+
 // The sphere rows' storage is the scheme's choice (compact rows for A, body form for B) unless
 // a benchmark sets it; a scene file cannot (a benchmark hook, `sweep run --row-storage`).
 TEST(SceneFile, CompactSphereRowsAreAutoUnlessSet) {

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+
 #include "framework/crba.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
@@ -178,6 +181,75 @@ TEST(UrdfImport, LimitsAreTheBoundsTheFileWrites) {
   EXPECT_EQ(limits["locked"], (Bounds{{0.2, 1.0}, {0.2, -1.0}}));
   EXPECT_EQ(limits["lower_only"], (Bounds{{-0.1, 1.0}}));
   EXPECT_EQ(limits.count("unbounded"), 0u);
+}
+
+// package://PKG/... resolves as ROS tools resolve it: through package_paths, then
+// $ROS_PACKAGE_PATH (a folder PKG holding package.xml, a few levels down), then the folders
+// above the URDF file.
+TEST(UrdfImport, PackageMeshesResolveThroughPathsTheEnvironmentAndTheFileItself) {
+  const std::string data = SWEEP_TEST_DATA;
+  const std::string mesh = data + "/packages/src/toy_description/meshes/link.stl";
+  const auto only = [](const Model& model) {
+    EXPECT_EQ(model.collisions.size(), 1u);
+    return model.collisions.empty() ? CollisionGeometry{} : model.collisions[0];
+  };
+  ASSERT_EQ(std::getenv("ROS_PACKAGE_PATH"), nullptr) << "the test sets it itself";
+  // inside its package: found above the file
+  const CollisionGeometry inside =
+      only(loadUrdf(data + "/packages/src/toy_description/urdf/toy.urdf"));
+  EXPECT_EQ(inside.missing_mesh, "");
+  EXPECT_TRUE(std::filesystem::equivalent(inside.mesh_file, mesh)) << inside.mesh_file;
+  // outside it: not found, and said so, until a path leads there
+  const std::string outside = data + "/urdf/toy_outside.urdf";
+  EXPECT_NE(only(loadUrdf(outside))
+                .missing_mesh.find("package 'toy_description' not found in "
+                                   "package_paths [], ROS_PACKAGE_PATH (unset)"),
+            std::string::npos);
+  UrdfOptions options;
+  options.package_paths = {data + "/meshes", data + "/packages"};
+  const CollisionGeometry by_path = only(loadUrdf(outside, options));
+  EXPECT_EQ(by_path.missing_mesh, "");
+  EXPECT_TRUE(std::filesystem::equivalent(by_path.mesh_file, mesh)) << by_path.mesh_file;
+  ASSERT_EQ(setenv("ROS_PACKAGE_PATH", ("/nonexistent:" + data + "/packages/src").c_str(), 1), 0);
+  const CollisionGeometry by_environment = only(loadUrdf(outside));
+  unsetenv("ROS_PACKAGE_PATH");
+  EXPECT_EQ(by_environment.missing_mesh, "");
+  EXPECT_TRUE(std::filesystem::equivalent(by_environment.mesh_file, mesh));
+}
+
+// A collision mesh the package does not ship: kept for the contact layer to refuse (the
+// default), left out, or replaced by the box of the link's mass and inertia; noted either way.
+TEST(UrdfImport, MissingMeshesAreRefusedLeftOutOrBoxed) {
+  const std::string data = SWEEP_TEST_DATA;
+  UrdfOptions options;
+  options.package_paths = {data + "/packages"};
+  const std::string path = data + "/urdf/toy_missing_mesh.urdf";
+  const Model refused = loadUrdf(path, options);
+  ASSERT_EQ(refused.collisions.size(), 1u);
+  EXPECT_NE(refused.collisions[0].missing_mesh.find("mesh file not found"), std::string::npos);
+  EXPECT_TRUE(refused.notes.empty());
+  options.missing_meshes = MissingMeshes::Skip;
+  const Model skipped = loadUrdf(path, options);
+  EXPECT_TRUE(skipped.collisions.empty());
+  ASSERT_EQ(skipped.notes.size(), 1u);
+  EXPECT_NE(skipped.notes[0].find("link 'arm': mesh " + data +
+                                  "/packages/src/toy_description/meshes/arm_collision.dae: mesh "
+                                  "file not found (the URDF names 'package://toy_description/"
+                                  "meshes/arm_collision.dae')"),
+            std::string::npos)
+      << skipped.notes[0];
+  options.missing_meshes = MissingMeshes::InertiaBox;
+  const Model boxed = loadUrdf(path, options);
+  ASSERT_EQ(boxed.collisions.size(), 1u);
+  const CollisionGeometry& box = boxed.collisions[0];
+  EXPECT_EQ(box.type, GeometryType::Box);
+  // the box 0.1 x 0.2 x 0.3 m whose inertia the link has, along its principal axes
+  const Vector3 world_edges = (box.placement.rotation * box.box_size).cwiseAbs();
+  EXPECT_NEAR(world_edges.x(), 0.1, 1e-9);
+  EXPECT_NEAR(world_edges.y(), 0.2, 1e-9);
+  EXPECT_NEAR(world_edges.z(), 0.3, 1e-9);
+  EXPECT_NEAR((box.placement.translation - Vector3(0, 0, 0.15)).norm(), 0.0, 1e-12);
+  EXPECT_NE(boxed.notes.at(0).find("its inertia box collides instead"), std::string::npos);
 }
 
 // The URDF fuzzer's find: lead bytes that promise more bytes than the text holds made TinyXML
