@@ -173,6 +173,13 @@ Vector3 outwardNormal(const Shape& s, const Pose& pose) {
                                         : Vector3(pose.rotation.col(1));
 }
 
+// FCL 0.7 answers a sphere against a triangle mesh with a negative depth and witness points in
+// the shapes' own frames; Sweep's closed form takes the pair on every path.
+bool meshAndSphere(const Shape& a, const Shape& b) {
+  return (a.type == ShapeType::TriangleMesh && b.type == ShapeType::Sphere) ||
+         (b.type == ShapeType::TriangleMesh && a.type == ShapeType::Sphere);
+}
+
 // The closed forms take the pair in one order (container first, ball second); `flipped`
 // says the geometries came the other way round.
 void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& pb, double margin,
@@ -199,6 +206,11 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
       break;
     case ShapeType::Box:
       out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
+      break;
+    case ShapeType::TriangleMesh:  // FCL's sphere-mesh pair is not used: see meshBall
+      if (s2.type == ShapeType::Sphere)
+        meshBall(p1, *s1.mesh, p2.translation, s2.radius, margin,
+                 [&](const ContactPoint& c) { out.push_back(c); });
       break;
     case ShapeType::Capsule:  // a segment along the local z axis, rounded by the radius
       out.push_back(segmentBall(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
@@ -529,7 +541,8 @@ void narrowphasePair(const Model& model, const ContactModel& cmodel, const Conta
     emit(p);
   } else {
     points.clear();
-    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
+        meshAndSphere(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], margin, points);
     else
@@ -722,7 +735,8 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
       continue;
     }
     cdata.points.clear();
-    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded)
+    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
+        meshAndSphere(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], far, cdata.points);
     else

@@ -43,6 +43,18 @@ ContactPoint halfSpaceBall(const Vector3& origin, const Vector3& outward, const 
 ContactPoint boxBall(const Pose& box_pose, const Vector3& half_extents, const Vector3& center,
                      double radius);
 
+// Triangle mesh (non-convex, a surface with a front: counter-clockwise) at `pose` against a
+// ball. A triangle's face gives a contact along its normal while the centre is in front of
+// it, or behind it by less than the radius (a ball crossing the surface is pushed back to the
+// front). An edge or vertex gives one only where it is the closest feature of every triangle
+// that holds it (a ridge or a rim): the edges inside a flat or concave patch, which FCL
+// reports with tilted normals, give none. Points with a gap below `margin`, each once; feature:
+// the triangle for a face, triangles + 3 x triangle + edge for an edge, 4 x triangles + vertex
+// for a vertex. Calls emit(ContactPoint).
+template <class Emit>
+void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
+              double margin, Emit&& emit);
+
 // Half-space against a convex shape or triangle mesh at `pose`: one contact point per vertex
 // (box, polygon, mesh), per end (segment, capsule: rounded ends) or per cap rim (cylinder)
 // whose gap is below `margin`, feature = that vertex or end. Calls emit(ContactPoint).

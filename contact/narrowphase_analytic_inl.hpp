@@ -18,7 +18,106 @@ void emitIfClose(const Vector3& origin, const Vector3& outward, const Vector3& d
   c.feature = feature;
   emit(c);
 }
+// The point of triangle (a, b, c) closest to x (Ericson, Real-Time Collision Detection 5.1.5)
+// and its feature there: 0 the face, 1 + k the edge (k, k+1), 4 + k the vertex k.
+inline Vector3 closestOnTriangle(const Vector3& x, const Vector3& a, const Vector3& b,
+                                 const Vector3& c, int& feature) {
+  const Vector3 ab = b - a, ac = c - a, ap = x - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return feature = 4, a;
+  const Vector3 bp = x - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return feature = 5, b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return feature = 1, a + d1 / (d1 - d3) * ab;
+  const Vector3 cp = x - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return feature = 6, c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return feature = 3, a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
+    return feature = 2, b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denominator = 1.0 / (va + vb + vc);
+  return feature = 0, a + ab * (vb * denominator) + ac * (vc * denominator);
+}
+
+// The feature of triangle t closest to x, as closestOnTriangle numbers it.
+inline int closestFeature(const TriangleMesh& mesh, int t, const Vector3& x) {
+  const auto& tri = mesh.triangles[t];
+  int feature = 0;
+  closestOnTriangle(x, mesh.vertices[tri[0]], mesh.vertices[tri[1]], mesh.vertices[tri[2]],
+                    feature);
+  return feature;
+}
+
 }  // namespace detail
+
+template <class Emit>
+void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
+              double margin, Emit&& emit) {
+  const Vector3 x = pose.rotation.transpose() * (center - pose.translation);  // mesh frame
+  const int triangles = static_cast<int>(mesh.triangles.size());
+  const double reach = radius + margin;
+  for (int t = 0; t < triangles; ++t) {
+    const auto& tri = mesh.triangles[t];
+    const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
+                  &c = mesh.vertices[tri[2]];
+    const Vector3& n = mesh.normals[t];
+    const double side = n.dot(x - a);
+    if (side > reach || side < -radius) continue;  // beyond the margin, or behind the surface
+    int feature = 0;
+    const Vector3 p = detail::closestOnTriangle(x, a, b, c, feature);
+    const Vector3 d = x - p;
+    const double distance = d.norm();
+    if (distance - radius >= margin) continue;
+    Vector3 normal = n;
+    double gap = side - radius;
+    int id = t;
+    if (feature != 0) {
+      if (side < 0.0) continue;  // behind this triangle, off its face: another one holds it
+      // an edge or vertex counts once, where every triangle holding it finds it closest
+      if (feature <= 3) {
+        const int k = feature - 1;
+        const int other = mesh.across[t][k];
+        if (other >= 0) {
+          if (other < t) continue;  // the lower triangle emits it
+          const int v0 = tri[k], v1 = tri[(k + 1) % 3];
+          const int f = detail::closestFeature(mesh, other, x);
+          const auto& o = mesh.triangles[other];
+          bool same = false;  // the other triangle's closest feature is this edge
+          for (int m = 0; m < 3; ++m)
+            same = same || (f == 1 + m && ((o[m] == v0 && o[(m + 1) % 3] == v1) ||
+                                           (o[m] == v1 && o[(m + 1) % 3] == v0)));
+          if (!same) continue;
+        }
+        id = triangles + 3 * t + k;
+      } else {
+        const int v = tri[feature - 4];
+        bool lowest = true, closest = true;
+        for (int j = mesh.around_start[v]; j < mesh.around_start[v + 1] && closest; ++j) {
+          const int u = mesh.around[j];
+          lowest = lowest && u >= t;
+          const int f = detail::closestFeature(mesh, u, x);
+          closest = f >= 4 && mesh.triangles[u][f - 4] == v;
+        }
+        if (!lowest || !closest) continue;
+        id = 4 * triangles + v;
+      }
+      if (distance > 1e-12 * radius) {
+        normal = d / distance;
+        gap = distance - radius;
+      }
+    }
+    ContactPoint contact;
+    contact.gap = gap;
+    contact.normal = pose.rotation * normal;
+    contact.point_a = pose.apply(p);
+    contact.point_b = center - radius * contact.normal;
+    contact.feature = id;
+    emit(contact);
+  }
+}
 
 template <class Emit>
 void halfSpaceShape(const Vector3& origin, const Vector3& outward, const Shape& shape,

@@ -74,9 +74,47 @@ Shape Shape::convexMesh(std::shared_ptr<const TriangleMesh> mesh) {
   s.mesh = std::move(mesh);
   return s;
 }
+void buildMeshTopology(TriangleMesh& mesh) {
+  const int n = static_cast<int>(mesh.vertices.size());
+  const int triangles = static_cast<int>(mesh.triangles.size());
+  mesh.normals.assign(triangles, Vector3::UnitZ());
+  mesh.across.assign(triangles, {-1, -1, -1});
+  mesh.around_start.assign(n + 1, 0);
+  std::map<std::pair<int, int>, std::pair<int, int>> edges;  // (low, high) -> (triangle, edge)
+  for (int t = 0; t < triangles; ++t) {
+    const auto& tri = mesh.triangles[t];
+    bool inside = true;
+    for (int k = 0; k < 3; ++k) inside = inside && tri[k] >= 0 && tri[k] < n;
+    if (!inside) continue;  // validateShape names it
+    const Vector3 normal = (mesh.vertices[tri[1]] - mesh.vertices[tri[0]])
+                               .cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+    if (normal.norm() > 0.0) mesh.normals[t] = normal.normalized();
+    for (int k = 0; k < 3; ++k) {
+      ++mesh.around_start[tri[k] + 1];
+      const std::pair<int, int> key{std::min(tri[k], tri[(k + 1) % 3]),
+                                    std::max(tri[k], tri[(k + 1) % 3])};
+      const auto [it, fresh] = edges.emplace(key, std::pair<int, int>{t, k});
+      if (fresh || mesh.across[it->second.first][it->second.second] >= 0) continue;
+      mesh.across[it->second.first][it->second.second] = t;
+      mesh.across[t][k] = it->second.first;
+    }
+  }
+  for (int v = 0; v < n; ++v) mesh.around_start[v + 1] += mesh.around_start[v];
+  mesh.around.assign(mesh.around_start[n], 0);
+  std::vector<int> fill(mesh.around_start.begin(), mesh.around_start.end() - 1);
+  for (int t = 0; t < triangles; ++t)
+    for (int v : mesh.triangles[t])
+      if (v >= 0 && v < n) mesh.around[fill[v]++] = t;
+}
+
 Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {
   Shape s;
   s.type = ShapeType::TriangleMesh;
+  if (mesh && mesh->normals.size() != mesh->triangles.size()) {
+    auto with_topology = std::make_shared<TriangleMesh>(*mesh);
+    buildMeshTopology(*with_topology);
+    mesh = std::move(with_topology);
+  }
   if (mesh) s.vertices = mesh->vertices;
   s.mesh = std::move(mesh);
   return s;

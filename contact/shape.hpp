@@ -33,7 +33,17 @@ bool isPlanarShape(ShapeType type);
 struct TriangleMesh {
   std::vector<Vector3> vertices;
   std::vector<std::array<int, 3>> triangles;
+  // Topology for the closed forms against a non-convex mesh (Shape::triangleMesh fills it):
+  // per triangle its unit normal (counter-clockwise: the front), the triangle across each edge
+  // (k, k+1) or -1, and per vertex the triangles around it (CSR: around_start has one entry
+  // per vertex and one more).
+  std::vector<Vector3> normals;
+  std::vector<std::array<int, 3>> across;
+  std::vector<int> around_start, around;
 };
+
+// Fills normals, across and around (a non-manifold edge keeps its first neighbour).
+void buildMeshTopology(TriangleMesh& mesh);
 
 struct Shape {
   ShapeType type = ShapeType::Sphere;

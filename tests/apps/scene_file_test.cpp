@@ -274,6 +274,37 @@ TEST(SceneFile, EveryExampleExportsToTheSameRun) {
   }
 }
 
+// A ball dropped on a fixed triangle-mesh slab (convex: false) lands and rests as it does on
+// a plane at the slab's top, in both schemes: the mesh's closed form gives the plane's gap and
+// normal (FCL's sphere-mesh pair let it fall through).
+TEST_F(InScenesFolder, ABallRestsOnATriangleMeshAsOnAPlane) {
+  const std::string ball =
+      "  - {name: ball, shape: sphere, radius: 0.05, mass: 1, position: [0.1, 0.13, 0.3]}\n"
+      "time: {step: 1.0e-3, end: 0.6}\n";
+  const std::string mesh_floor =
+      "dimension: 3\nbodies:\n  - {name: floor, shape: mesh, file: ../meshes/cube.stl, "
+      "scale: [2, 2, 0.2], convex: false, fixed: true, position: [0, 0, -0.1]}\n" +
+      ball;
+  const std::string plane_floor =
+      "dimension: 3\nbodies:\n  - {name: floor, shape: plane, normal: [0, 0, 1], fixed: true}\n" +
+      ball;
+  for (const char* scheme : {"moreau-jean", "catching-up"}) {
+    SCOPED_TRACE(scheme);
+    std::vector<VectorX> ends;
+    for (const std::string& text : {mesh_floor, plane_floor}) {
+      const SceneFile file =
+          loadSceneText(text, "floor.yaml", {std::string("scheme.name=") + scheme}, {});
+      const Scene scene = buildSceneFile(file);
+      TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+      stepper.reset(0.0, scene.q0, scene.v0);
+      for (int k = 0; k < 600; ++k) stepper.step();
+      ends.push_back(stepper.q());
+    }
+    EXPECT_NEAR(ends[0][2], ends[1][2], 1e-12);  // the ball's height, mesh against plane
+    EXPECT_NEAR(ends[0][2], 0.05, 2e-3);         // resting on the top, z = 0
+  }
+}
+
 // package_paths and missing_meshes reach the importer, relative to the scene, and export
 // writes them back.
 TEST_F(InScenesFolder, UrdfPackagePathsAndMissingMeshesReachTheImporter) {

@@ -178,3 +178,66 @@ TEST(HalfSpaceShape, BoxCornersBelowMargin) {
 
 }  // namespace
 }  // namespace sweep
+
+namespace sweep {
+namespace {
+
+// A square of two triangles in z = 0 (front +z), and a fold along the y axis: two squares at
+// `slope` up (a valley, concave) or down (a ridge, convex) from the fold.
+std::shared_ptr<const TriangleMesh> foldedSquares(double slope) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  const double z = slope;  // height of the outer edges at x = +-1
+  mesh->vertices = {{-1, -1, z}, {0, -1, 0}, {1, -1, z}, {-1, 1, z}, {0, 1, 0}, {1, 1, z}};
+  mesh->triangles = {{0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4}};
+  return Shape::triangleMesh(mesh).mesh;
+}
+
+std::vector<ContactPoint> meshBallContacts(const TriangleMesh& mesh, const Vector3& center,
+                                           double radius, double margin) {
+  std::vector<ContactPoint> out;
+  meshBall(Pose::identity(), mesh, center, radius, margin,
+           [&](const ContactPoint& c) { out.push_back(c); });
+  return out;
+}
+
+// The mesh's closed form: the faces' normals, one contact per feature, none from the edges
+// inside a flat or concave patch, and a ball crossing the surface pushed back to its front.
+TEST(MeshBall, FacesRidgesAndValleysGiveTheirOwnContacts) {
+  const auto flat = foldedSquares(0.0);
+  const double r = 0.1;
+  // above the diagonal of a split square and above the fold: the face only, along +z
+  for (const Vector3& x :
+       {Vector3(0.3, 0.2, 0.15), Vector3(0.0, 0.0, 0.15), Vector3(0.5, 0.5, 0.15)}) {
+    const auto c = meshBallContacts(*flat, x, r, 0.1);
+    ASSERT_EQ(c.size(), 1u) << x.transpose();
+    EXPECT_NEAR(c[0].gap, 0.05, 1e-15);
+    EXPECT_NEAR((c[0].normal - Vector3::UnitZ()).norm(), 0.0, 1e-15);
+    EXPECT_NEAR((c[0].point_a - Vector3(x.x(), x.y(), 0.0)).norm(), 0.0, 1e-15);
+  }
+  // crossing the surface (centre 0.04 below it): pushed back up; far behind it: nothing
+  const auto crossing = meshBallContacts(*flat, Vector3(0.3, 0.2, -0.04), r, 0.1);
+  ASSERT_EQ(crossing.size(), 1u);
+  EXPECT_NEAR(crossing[0].gap, -0.14, 1e-15);
+  EXPECT_EQ(crossing[0].normal, Vector3::UnitZ());
+  EXPECT_TRUE(meshBallContacts(*flat, Vector3(0.3, 0.2, -0.5), r, 0.1).empty());
+  // past the rim: the boundary edge, pointing at the centre
+  const auto rim = meshBallContacts(*flat, Vector3(1.05, 0.2, 0.05), r, 0.1);
+  ASSERT_EQ(rim.size(), 1u);
+  EXPECT_NEAR(rim[0].gap, std::hypot(0.05, 0.05) - r, 1e-15);
+  // a ridge (the outer edges 0.5 below the fold): above the fold, the fold's edge alone
+  const auto ridge = meshBallContacts(*foldedSquares(-0.5), Vector3(0.0, 0.2, 0.15), r, 0.1);
+  ASSERT_EQ(ridge.size(), 1u);
+  EXPECT_NEAR(ridge[0].gap, 0.05, 1e-15);
+  EXPECT_NEAR((ridge[0].normal - Vector3::UnitZ()).norm(), 0.0, 1e-15);
+  // a valley: both faces, each along its own normal, and not the fold between them
+  const auto valley = meshBallContacts(*foldedSquares(1.0), Vector3(0.0, 0.2, 0.14), r, 0.1);
+  ASSERT_EQ(valley.size(), 2u);
+  for (const ContactPoint& c : valley) {
+    EXPECT_NEAR(std::abs(c.normal.x()), 1.0 / std::sqrt(2.0), 1e-15);
+    EXPECT_NEAR(c.gap, 0.14 / std::sqrt(2.0) - r, 1e-15);
+  }
+  EXPECT_LT(valley[0].normal.x() * valley[1].normal.x(), 0.0);
+}
+
+}  // namespace
+}  // namespace sweep
