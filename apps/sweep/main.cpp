@@ -91,6 +91,8 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
 }  // namespace
 
 static int runCommand(int argc, char** argv) {
+  // first: a signal that comes while the command line is read is still honoured
+  sweep::installStopSignals();
   CLI::App app{"Sweep: nonsmooth contact dynamics of multibody systems"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "sweep 0.1.0");
@@ -173,7 +175,6 @@ static int runCommand(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
 
-  sweep::installStopSignals();
   try {
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())

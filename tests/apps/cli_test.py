@@ -544,6 +544,19 @@ class TiledBed(unittest.TestCase):
             self.assertFalse(os.path.exists(out))
 
 
+def wait_for_handlers(process, timeout=60.0):
+    """Waits until the process catches SIGTERM (its handlers are installed, /proc/PID/status
+    SigCgt): a signal sent before would end it by the default action, not by Sweep's."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and process.poll() is None:
+        with open(f"/proc/{process.pid}/status") as f:
+            caught = next((line.split()[1] for line in f if line.startswith("SigCgt:")), "0")
+        if int(caught, 16) & (1 << (signal.SIGTERM - 1)):
+            return
+        time.sleep(0.01)
+    raise AssertionError("the process never installed its signal handlers")
+
+
 class Interrupt(unittest.TestCase):
     def test_ctrl_c_sigterm_and_sighup_leave_valid_flagged_results(self):
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
@@ -551,6 +564,7 @@ class Interrupt(unittest.TestCase):
             p = subprocess.Popen([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
                                   "--set", "time.end=1000"], cwd=SCENES,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            wait_for_handlers(p)
             time.sleep(1.5)
             p.send_signal(sig)
             stdout, stderr = p.communicate(timeout=60)
@@ -571,6 +585,7 @@ class Interrupt(unittest.TestCase):
                               "moreau-jean", "--set", "scheme.coulomb.max_iterations=100000000",
                               "--set", "scheme.coulomb.tolerance=1e-300"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        wait_for_handlers(p)
         time.sleep(2.0)
         sent = time.monotonic()
         p.send_signal(signal.SIGINT)
@@ -585,7 +600,8 @@ class Interrupt(unittest.TestCase):
         p = subprocess.Popen([SWEEP, "check", FUNNEL, "--set", "generators[0].count=100000",
                               "--set", "generators[0].orifice=0.1"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(0.5)
+        wait_for_handlers(p)
+        time.sleep(0.3)
         sent = time.monotonic()
         p.send_signal(signal.SIGTERM)
         stdout, _ = p.communicate(timeout=60)
