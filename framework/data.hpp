@@ -23,6 +23,8 @@ struct Data {
   // per component: M block, and its Cholesky factor (constant blocks are factored here, once)
   std::vector<MatrixX> mass_blocks;
   std::vector<Eigen::LLT<MatrixX>> mass_factors;
+  // M + diag(added) of the components forwardDynamicsWithAddedMass shifts (empty otherwise)
+  std::vector<MatrixX> shifted_mass;
   // constant 6 x 6 blocks (free rigid bodies: every grain) also as their inverse, so that the
   // contact assembly's M^-1 H is one fixed-size product instead of a dynamic-size triangular
   // solve per contact (docs/powder_bed.md); empty matrices elsewhere

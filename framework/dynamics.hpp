@@ -11,4 +11,14 @@ const VectorX& forwardDynamics(const Model& model, Data& data, const VectorX& q,
 const VectorX& forwardDynamicsFromKinematics(const Model& model, Data& data, const VectorX& v,
                                              const VectorX& tau);
 
+// The same with a diagonal added to M on some velocities (`added`, nv entries, zero where
+// none): data.ddq = (M + diag(added))^-1 (tau - b), an implicit damper's h c
+// (integrators/actuation.hpp). data.mass_blocks keep M, which the energies read;
+// data.mass_factors hold the factors of M + diag(added), which every later M^-1 of the step
+// (the contact rows) applies. `shifted` marks the components refactored every call whatever
+// their added entries: those that hold an actuated joint, constant mass blocks included.
+const VectorX& forwardDynamicsWithAddedMass(const Model& model, Data& data, const VectorX& v,
+                                            const VectorX& tau, const VectorX& added,
+                                            const std::vector<char>& shifted);
+
 }  // namespace sweep

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "framework/actuator.hpp"
 #include "framework/joint.hpp"
 #include "framework/spatial.hpp"
 
@@ -28,6 +29,9 @@ struct Body {
   Inertia inertia;       // in the body frame
   std::string name;
   std::string joint_name;
+  // the URDF's <limit effort> (N m, or N on a prismatic joint); infinity where none is given.
+  // An actuator's torque limit unless it sets its own.
+  double effort_limit = std::numeric_limits<double>::infinity();
 };
 
 // Bodies connected to the world through one root joint. M is block diagonal over components;
@@ -148,6 +152,7 @@ struct Model {
   std::vector<EquationSystem> systems;  // their components follow the body trees'
   std::vector<ConstraintFunction> constraints;
   std::vector<JointCoupling> couplings;  // also in `constraints`, as bilateral functions
+  std::vector<JointActuator> actuators;  // addJointActuator (framework/actuator.hpp)
   // what an import changed from its file (a missing mesh left out or replaced), for the run's
   // description
   std::vector<std::string> notes;
@@ -186,6 +191,7 @@ class ModelBuilder {
   // a bilateral constraint by functions, after those added by addConstraint.
   void addJointCoupling(int follower, int leader, double multiplier, double offset);
   void addNote(const std::string& note) { notes_.push_back(note); }
+  void setEffortLimit(int body, double effort) { bodies_.at(body).effort_limit = effort; }
   int bodyCount() const { return static_cast<int>(bodies_.size()); }
 
   // Orders bodies component by component (depth-first), assigns coordinate indices and checks

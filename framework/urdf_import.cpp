@@ -453,6 +453,9 @@ class Importer {
              "lower " + number(lower) + " exceeds upper " + number(upper));
       if (lower > -kInfinity || upper < kInfinity) builder_.addJointLimits(body, lower, upper);
     }
+    // an effort of 0 is read as none: urdfdom gives 0 where the attribute is absent
+    if (j.limits && j.limits->effort > 0.0 && std::isfinite(j.limits->effort))
+      builder_.setEffortLimit(body, j.limits->effort);
     addLinkContents(*link, body);
     return body;
   }

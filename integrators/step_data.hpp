@@ -11,6 +11,7 @@
 
 #include "contact/detection.hpp"
 #include "framework/enum_names.hpp"
+#include "integrators/actuation.hpp"
 #include "integrators/contact_problem.hpp"
 #include "integrators/nlgs.hpp"
 #include "integrators/stage_solvers.hpp"
@@ -134,6 +135,17 @@ struct StepData {
   VectorX v_stage1;
   std::vector<double> threshold_impulse;
   std::vector<double> end_gap;  // gaps at q_{k+1}, by contact (diagnostics)
+
+  // actuators (Model::actuators, integrators/actuation.hpp), by actuator: Python's commands,
+  // the explicit torque tau_e and the implicit damping c of the step, whether the step holds it
+  // at its limit, the torque applied over the last step; h c by velocity; the components
+  // holding an actuated joint; the servo's target position at the step's end (NaN: none)
+  std::vector<ActuatorCommand> actuator_command;
+  std::vector<double> actuator_explicit, actuator_damping, actuator_torque, actuator_target;
+  std::vector<char> actuator_saturated;
+  std::vector<signed char> actuator_held;  // +-1: held at +-max_torque for this step's solves
+  VectorX added_mass;
+  std::vector<char> actuated_component;
 
   // candidate screening, by contact: left out of the solve, solved this step, the law's bias
   // of each left out, left out without Jacobian rows (judged from its bodies' twists)

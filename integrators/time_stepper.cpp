@@ -98,6 +98,18 @@ StepData::StepData(const Model& model, const ContactModel& cmodel, const SchemeS
       problem_ws(model) {
   problem.compact_spheres = settings.compactSphereRows();
   problem.pack_body_form = problem.pack_rows = settings.packed_rows;
+  const std::size_t actuators = model.actuators.size();
+  actuator_command.resize(actuators);
+  actuator_explicit.assign(actuators, 0.0);
+  actuator_damping.assign(actuators, 0.0);
+  actuator_torque.assign(actuators, 0.0);
+  actuator_target.assign(actuators, std::numeric_limits<double>::quiet_NaN());
+  actuator_saturated.assign(actuators, 0);
+  actuator_held.assign(actuators, 0);
+  added_mass = VectorX::Zero(model.nv);
+  actuated_component.assign(model.components.size(), 0);
+  for (const JointActuator& a : model.actuators)
+    actuated_component[model.bodies[a.body].component] = 1;
 }
 
 TimeStepper::TimeStepper(const Model& model, const ContactModel& cmodel,
@@ -119,13 +131,15 @@ const StepStats& TimeStepper::step() {
   StepData& d = d_;
   d.stats.step += 1;
   d.model_data.threads = m.threads;
+  const bool actuated = !m.model.actuators.empty();
+  if (actuated) std::fill(d.actuator_held.begin(), d.actuator_held.end(), 0);
   midpoint(m, d);      // 1
   detect(m, d);        // 2
   freeVelocity(m, d);  // 4 (M(q_m) is factored here; stage 3 needs it)
   // VEL solves the closed contacts only, which the margin does not decide
   const bool verify_margin =
       m.cmodel.settings.verify_margin && m.settings.normal_law != NormalLaw::Vel;
-  if (verify_margin) {
+  if (verify_margin || actuated) {
     d.contact_dv_start = d.contact_dv;
     d.limit_impulse_start = d.limit_impulse;
     d.constraint_impulse_start = d.constraint_impulse;
@@ -133,6 +147,13 @@ const StepStats& TimeStepper::step() {
   }
   assemble(m, d);  // 3
   solve(m, d);     // 5
+  // servos that the contacts pushed past their torque limits are held at them, and the step
+  // solved again: each round holds at least one more
+  for (std::size_t round = 0; actuated && round < m.model.actuators.size(); ++round)
+    if (holdActuatorLimits(m, d))
+      redoStep(m, d, {});
+    else
+      break;
   d.stats.redetections = 0;
   d.stats.margin_outrun = false;
   if (verify_margin) {
@@ -277,7 +298,11 @@ void freeVelocity(const StepModel& m, StepData& d) {
   addSystemForces(m, d, t_m, d.q_m, d.v);
   // detect(m, d) left the kinematics of data at (q_m, v); constant mass blocks (particles) are
   // skipped, the others rebuilt and factored
-  d.v_free = d.v + m.settings.h * forwardDynamicsFromKinematics(m.model, d.model_data, d.v, d.tau);
+  if (!m.model.actuators.empty())
+    actuatedFreeVelocity(m, d);
+  else
+    d.v_free =
+        d.v + m.settings.h * forwardDynamicsFromKinematics(m.model, d.model_data, d.v, d.tau);
   d.stats.t_assemble = seconds(start);
 }
 
@@ -420,6 +445,7 @@ void assembleProblem(const StepModel& m, StepData& d) {
 
 void update(const StepModel& m, StepData& d) {
   const auto start = Clock::now();
+  if (!m.model.actuators.empty()) actuatorTorques(m, d);
   const int n = d.problem.size();
   // contact work with the local velocities of H(q_m) at the start and end of the step
   d.stats.work_normal = d.stats.work_tangent = 0.0;

@@ -56,6 +56,17 @@ class TimeStepper {
   // impulse (normal, tangents) of each constraint by functions (Model::constraints)
   const std::vector<Vector3>& constraintImpulses() const { return d_.constraint_impulse; }
   double energy();  // kinetic + potential at the current state
+  // a command to actuator a (Model::actuators), held until the next; its NaN entries leave the
+  // actuator's own tables in force (integrators/actuation.hpp)
+  void command(int actuator, const ActuatorCommand& command) {
+    d_.actuator_command.at(static_cast<std::size_t>(actuator)) = command;
+  }
+  // the torque (force) each actuator applied over the last step
+  const std::vector<double>& actuatorTorques() const { return d_.actuator_torque; }
+  // each servo's target position at the last step's end (NaN: none), and whether the last step
+  // held the actuator at its torque limit
+  const std::vector<double>& actuatorTargets() const { return d_.actuator_target; }
+  const std::vector<char>& actuatorsSaturated() const { return d_.actuator_saturated; }
   const StepModel& stepModel() const { return m_; }
   const StepData& data() const { return d_; }  // everything the last step computed
 

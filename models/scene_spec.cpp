@@ -437,6 +437,16 @@ Scene buildScene(const SceneSpec& spec) {
     }
   }
   if (!spec.urdfs.empty()) cb.addModelCollisions(0, body_materials);
+  for (std::size_t u = 0; u < spec.urdfs.size(); ++u)
+    for (const UrdfSpec::Actuator& a : spec.urdfs[u].actuators) {
+      const Body& b = model.bodies[urdfJointBody(spec, model, u, "actuators", a.drive.joint)];
+      JointActuator drive = a.drive;
+      drive.joint = b.joint_name;
+      if (!a.max_torque_given) drive.max_torque = b.effort_limit;
+      addJointActuator(
+          scene.model, drive,
+          spec.source + ": urdf[" + std::to_string(u) + "].actuators." + a.drive.joint);
+    }
   scene.forces = sceneLoads(spec, model);
   scene.cmodel = cb.build();
   if (scene.model.nv == 0)

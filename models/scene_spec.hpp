@@ -83,6 +83,13 @@ struct UrdfSpec {
     double stiffness = 0.0, rest = 0.0;
   };
   std::vector<JointSpring> joint_springs;
+  // motors and servos on its 1-dof joints (framework/actuator.hpp), joint names as the file
+  // writes them; without max_torque given, the joint's <limit effort> bounds the torque
+  struct Actuator {
+    JointActuator drive;
+    bool max_torque_given = false;
+  };
+  std::vector<Actuator> actuators;
 };
 
 struct SceneSpec {

@@ -656,6 +656,59 @@ PYBIND11_MODULE(sweep, m) {
             return out;
           },
           "The last step's impulse (normal, tangents) of each constraint by functions")
+      .def_property_readonly(
+          "actuators",
+          [](const Simulation& s) {
+            std::vector<std::string> joints;
+            for (const JointActuator& a : s.scene().model.actuators) joints.push_back(a.joint);
+            return joints;
+          },
+          "The actuated joints' names, in the order of actuator_torques()")
+      .def(
+          "command",
+          [](Simulation& s, const std::string& joint, std::optional<double> torque,
+             std::optional<double> position, std::optional<double> velocity) {
+            const auto& actuators = s.scene().model.actuators;
+            for (std::size_t a = 0; a < actuators.size(); ++a) {
+              if (actuators[a].joint != joint) continue;
+              const std::string where = "command('" + joint + "')";
+              for (const auto& [name, value] :
+                   {std::pair{"torque", torque}, {"position", position}, {"velocity", velocity}})
+                if (value && !std::isfinite(*value))
+                  throw InputError(where + ": " + name + " = " + exactNumber(*value) +
+                                   " must be finite");
+              if ((position || velocity) && !actuators[a].servo())
+                throw InputError(where +
+                                 ": the actuator has no servo gains (kp, kd) to follow "
+                                 "a position or velocity");
+              if (position && actuators[a].kp == 0.0)
+                throw InputError(where + ": a position needs kp > 0");
+              constexpr double none = std::numeric_limits<double>::quiet_NaN();
+              s.stepper().command(static_cast<int>(a),
+                                  ActuatorCommand{torque.value_or(none), position.value_or(none),
+                                                  velocity.value_or(none)});
+              return;
+            }
+            throw InputError("command: no actuator on a joint named '" + joint + "'");
+          },
+          py::arg("joint"), py::arg("torque") = py::none(), py::arg("position") = py::none(),
+          py::arg("velocity") = py::none(),
+          "Commands the actuator of `joint` from the next step on, until the next command: a "
+          "motor torque (force), and a servo's target position and velocity. What is left "
+          "out (None) follows the scene's tables; a position without a velocity aims at rest.")
+      .def(
+          "actuator_torques",
+          [](const Simulation& s) {
+            const auto& torques = s.stepper().actuatorTorques();
+            return VectorX(Eigen::Map<const VectorX>(torques.data(),
+                                                     static_cast<Eigen::Index>(torques.size())));
+          },
+          "The torque (force) each actuator applied over the last step, in the order of "
+          "`actuators`")
+      .def_property_readonly(
+          "dof_names", [](const Simulation& s) { return s.scene().model.dofNames(); },
+          "A name per entry of v: the joint's, with :x, :y, :theta (planar) or :vx ... :wz "
+          "(floating) where it has several")
       .def("step", &Simulation::step, "One step; returns its statistics.")
       .def("run", &Simulation::run, py::arg("t_end") = py::none(), py::arg("callback") = py::none(),
            "Step to t_end (default: the scene's end); callback(sim) after each step may return "

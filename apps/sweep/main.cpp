@@ -1,6 +1,7 @@
 // `sweep`: runs scene files. Subcommands: run, bench, check, export (docs/cli.md).
 // Exit codes: 0 success, 2 bad input, 1 runtime failure.
 #include <unistd.h>
+#include <cmath>
 
 #include <CLI/CLI.hpp>
 #include <csignal>
@@ -29,6 +30,15 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
       << " driven, nq = " << model.nq << ", nv = " << model.nv << "\n";
   out << "  " << sweep::describe(scene.cmodel) << "\n";
   for (const std::string& note : model.notes) out << "  note: " << note << "\n";
+  if (!model.actuators.empty()) {
+    out << "  actuators (implicit servos, torque limits):";
+    for (const sweep::JointActuator& a : model.actuators) {
+      out << " " << a.joint << " (" << (a.servo() ? "servo" : "motor");
+      if (std::isfinite(a.max_torque)) out << ", |tau| <= " << a.max_torque;
+      out << ")";
+    }
+    out << "\n";
+  }
   const sweep::SchemeSettings& s = file.run.scheme;
   // auto as what it resolves to here (convex_stages.cpp: Newton on 2D problems)
   auto stageSolverShown = [&](sweep::StageSolver solver) {

@@ -51,6 +51,53 @@ std::string formatDuration(double seconds) {
   return s.str();
 }
 
+// A file written step by step under its temporary name (PATH.partial, removed if a signal stops
+// the process mid-step), renamed into place when the run ends
+struct StreamedFile {
+  explicit StreamedFile(std::string path_) : path(std::move(path_)), partial(path + ".partial") {
+    out.open(path + ".partial", std::ios::binary);
+    if (!out) throw std::runtime_error(path + ".partial: cannot open for writing");
+  }
+  // a full disk stops the run at once rather than computing results nobody gets
+  void checkEvery(long step) {
+    if (step % 1024 == 0 && !out.flush())
+      throw std::runtime_error(path + ".partial: cannot write at step " + std::to_string(step) +
+                               " (disk full?)");
+  }
+  void finish() {
+    out.close();
+    if (!out) throw std::runtime_error(path + ": cannot write (disk full?)");
+    std::error_code error;
+    fs::rename(path + ".partial", path, error);
+    if (error) throw std::runtime_error(path + ": cannot rename into place");
+  }
+  std::string path;
+  PartialFile partial;
+  std::ofstream out;
+};
+
+// actuators.csv: per step, each actuator's joint position, target (empty: none), torque (force)
+// applied over the step, and whether the step held it at its limit
+void writeActuatorHeader(std::ostream& out, const Model& model) {
+  out << "step,t";
+  for (const JointActuator& a : model.actuators)
+    out << ',' << a.joint << ":position," << a.joint << ":target," << a.joint << ":torque,"
+        << a.joint << ":saturated";
+  out << '\n';
+}
+
+void appendActuatorRow(std::ostream& out, const Model& model, const TimeStepper& stepper) {
+  out << stepper.stats().step << ',' << exactNumber(stepper.time());
+  for (std::size_t a = 0; a < model.actuators.size(); ++a) {
+    const double target = stepper.actuatorTargets()[a];
+    out << ',' << exactNumber(stepper.q()[model.actuators[a].q_index]) << ','
+        << (std::isnan(target) ? std::string() : exactNumber(target)) << ','
+        << exactNumber(stepper.actuatorTorques()[a]) << ','
+        << (stepper.actuatorsSaturated()[a] ? 1 : 0);
+  }
+  out << '\n';
+}
+
 // stats.csv: a header of the statistics' names, then one row per step (visitStepStats)
 void writeStatsHeader(std::ostream& out, bool timings) {
   const char* separator = "";
@@ -355,6 +402,26 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
   return state;
 }
 
+ActuatorTally::ActuatorTally(const Model& model) : rows_(model.actuators.size()) {}
+
+void ActuatorTally::add(const Model& model, const TimeStepper& stepper) {
+  for (std::size_t a = 0; a < rows_.size(); ++a) {
+    ActuatorSummary& row = rows_[a];
+    row.max_abs_torque = std::max(row.max_abs_torque, std::abs(stepper.actuatorTorques()[a]));
+    const double target = stepper.actuatorTargets()[a];
+    if (!std::isnan(target))
+      row.max_tracking_error = std::max(row.max_tracking_error,
+                                        std::abs(stepper.q()[model.actuators[a].q_index] - target));
+    row.saturated_steps += stepper.actuatorsSaturated()[a] ? 1 : 0;
+  }
+}
+
+std::vector<ActuatorSummary> ActuatorTally::summary(const Model& model) const {
+  std::vector<ActuatorSummary> rows = rows_;
+  for (std::size_t a = 0; a < rows.size(); ++a) rows[a].joint = model.actuators[a].joint;
+  return rows;
+}
+
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
   settings.scheme.validate();
   const double h = settings.scheme.h;
@@ -371,21 +438,22 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   if (files) {
     std::vector<std::string> outputs{"final_state.csv", "summary.json"};
     if (settings.output.stats) outputs.push_back("stats.csv");
+    if (settings.output.stats && !scene.model.actuators.empty()) outputs.push_back("actuators.csv");
     if (settings.output.layer) outputs.insert(outputs.end(), {"layer.json", "layer_height.png"});
     if (settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0)
       outputs.push_back("snapshots.pvd");
     for (const std::string& name : outputs) requireOutputFile(options.out_dir + "/" + name);
   }
-  // stats.csv grows step by step under its temporary name; renamed when the run ends
-  const std::string stats_path = options.out_dir + "/stats.csv";
-  std::ofstream stats;
-  std::optional<PartialFile> stats_partial;  // removed if a signal stops the process mid-step
+  std::optional<StreamedFile> stats, actuators;
   if (files && settings.output.stats) {
-    stats_partial.emplace(stats_path + ".partial");
-    stats.open(stats_path + ".partial", std::ios::binary);
-    if (!stats) throw std::runtime_error(stats_path + ".partial: cannot open for writing");
-    writeStatsHeader(stats, settings.output.timings);
+    stats.emplace(options.out_dir + "/stats.csv");
+    writeStatsHeader(stats->out, settings.output.timings);
+    if (!scene.model.actuators.empty()) {
+      actuators.emplace(options.out_dir + "/actuators.csv");
+      writeActuatorHeader(actuators->out, scene.model);
+    }
   }
+  ActuatorTally tally(scene.model);
   std::unique_ptr<VtkSeries> vtk;
   const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;
   if (files && snapshots) vtk = std::make_unique<VtkSeries>(scene, options.out_dir);
@@ -443,12 +511,14 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;
-    if (stats.is_open()) {
-      appendStatsRow(stats, s, settings.output.timings);
-      // a full disk stops the run at once rather than computing results nobody gets
-      if (s.step % 1024 == 0 && !stats.flush())
-        throw std::runtime_error(stats_path + ".partial: cannot write at step " +
-                                 std::to_string(s.step) + " (disk full?)");
+    if (stats) {
+      appendStatsRow(stats->out, s, settings.output.timings);
+      stats->checkEvery(s.step);
+    }
+    tally.add(scene.model, stepper);
+    if (actuators) {
+      appendActuatorRow(actuators->out, scene.model, stepper);
+      actuators->checkEvery(s.step);
     }
     if (vtk) {
       const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
@@ -483,13 +553,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   summary.iterations_stage1 = stage1.distribution();
   summary.iterations_stage2 = stage2.distribution();
 
-  if (stats.is_open()) {
-    stats.close();
-    if (!stats) throw std::runtime_error(stats_path + ": cannot write (disk full?)");
-    std::error_code error;
-    fs::rename(stats_path + ".partial", stats_path, error);
-    if (error) throw std::runtime_error(stats_path + ": cannot rename into place");
-  }
+  summary.actuators = tally.summary(scene.model);
+  if (stats) stats->finish();
+  if (actuators) actuators->finish();
   if (files) {
     // the state the run ended in, exactly (17 digits): to compare runs bit for bit, or to
     // start another from it
@@ -553,6 +619,14 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
                  {"ns_per_update",
                   s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0}};
   j["energy"] = {{"initial", s.energy_initial}, {"final", s.energy_final}};
+  if (!s.actuators.empty()) {
+    nlohmann::ordered_json actuators = nlohmann::ordered_json::object();
+    for (const ActuatorSummary& a : s.actuators)
+      actuators[a.joint] = {{"max_abs_torque", a.max_abs_torque},
+                            {"max_tracking_error", a.max_tracking_error},
+                            {"saturated_steps", a.saturated_steps}};
+    j["actuators"] = actuators;
+  }
   return j;
 }
 

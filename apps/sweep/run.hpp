@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "apps/sweep/scene_file.hpp"
+#include "integrators/time_stepper.hpp"
 
 namespace sweep {
 
@@ -63,6 +64,25 @@ class IterationHistogram {
   std::map<int, long> counts_;
 };
 
+// What a run's actuators did, each over the run: the largest torque (force) applied, the
+// largest distance of its joint from its servo's target at a step's end (0: no target), the
+// steps it spent at its torque limit
+struct ActuatorSummary {
+  std::string joint;
+  double max_abs_torque = 0.0, max_tracking_error = 0.0;
+  long saturated_steps = 0;
+};
+
+class ActuatorTally {
+ public:
+  explicit ActuatorTally(const Model& model);
+  void add(const Model& model, const TimeStepper& stepper);  // after each step
+  std::vector<ActuatorSummary> summary(const Model& model) const;
+
+ private:
+  std::vector<ActuatorSummary> rows_;
+};
+
 struct RunSummary {
   std::string scheme;
   int threads = 1;  // the solves' threads (cpu_seconds adds up every thread's time)
@@ -90,6 +110,7 @@ struct RunSummary {
   double energy_initial = 0.0, energy_final = 0.0;
   bool interrupted = false;
   std::vector<int> iterations_per_step;  // when RunOptions::keep_iterations
+  std::vector<ActuatorSummary> actuators;
 };
 
 // Runs `scene` from t = 0 (or options.start's t) to settings.t_end. Throws InputError for bad

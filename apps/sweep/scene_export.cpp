@@ -89,6 +89,31 @@ void emitOrientation(YAML::Emitter& out, const BodySpec& b, int dim) {
   }
 }
 
+// a table as its constant, or as {times, values}
+void emitTimeTable(YAML::Emitter& out, const char* key, const TimeTable& table) {
+  if (table.empty()) return;
+  out << YAML::Key << key << YAML::Value;
+  if (table.values.size() == 1) {
+    out << table.values.front();
+    return;
+  }
+  out << YAML::Flow << YAML::BeginMap << YAML::Key << "times" << YAML::Value << YAML::Flow
+      << table.times << YAML::Key << "values" << YAML::Value << YAML::Flow << table.values
+      << YAML::EndMap;
+}
+
+void emitActuator(YAML::Emitter& out, const UrdfSpec::Actuator& a) {
+  const JointActuator& d = a.drive;
+  out << YAML::Key << d.joint << YAML::Value << YAML::Flow << YAML::BeginMap;
+  emitTimeTable(out, "torque", d.torque);
+  if (d.kp > 0.0) out << YAML::Key << "kp" << YAML::Value << d.kp;
+  if (d.kd > 0.0) out << YAML::Key << "kd" << YAML::Value << d.kd;
+  emitTimeTable(out, "position", d.position);
+  emitTimeTable(out, "velocity", d.velocity);
+  if (a.max_torque_given) out << YAML::Key << "max_torque" << YAML::Value << d.max_torque;
+  out << YAML::EndMap;
+}
+
 void emitUrdf(YAML::Emitter& out, const UrdfSpec& u, const std::string& file,
               const std::function<std::string(const std::string&)>& fromExport) {
   out << YAML::BeginMap;
@@ -130,6 +155,11 @@ void emitUrdf(YAML::Emitter& out, const UrdfSpec& u, const std::string& file,
       out << YAML::Key << spring.joint << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
           << "stiffness" << YAML::Value << spring.stiffness << YAML::Key << "rest" << YAML::Value
           << spring.rest << YAML::EndMap;
+    out << YAML::EndMap;
+  }
+  if (!u.actuators.empty()) {
+    out << YAML::Key << "actuators" << YAML::Value << YAML::BeginMap;
+    for (const UrdfSpec::Actuator& a : u.actuators) emitActuator(out, a);
     out << YAML::EndMap;
   }
   out << YAML::EndMap;

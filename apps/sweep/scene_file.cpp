@@ -594,8 +594,8 @@ class SceneParser {
     for (std::size_t i = 0; i < list.size(); ++i) {
       const YamlField f = list.at(i);
       f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
-                   "material", "link_materials", "joint_springs", "package_paths",
-                   "missing_meshes"});
+                   "material", "link_materials", "joint_springs", "package_paths", "missing_meshes",
+                   "actuators"});
       UrdfSpec u;
       if (f.has("package_paths")) {
         const YamlField paths = f["package_paths"];
@@ -649,7 +649,48 @@ class SceneParser {
               {joint, spring.nonNegative("stiffness", 0.0), spring.number("rest", 0.0)});
         }
       }
+      if (f.has("actuators")) parseActuators(f["actuators"], u);
       out_.spec.urdfs.push_back(u);
+    }
+  }
+
+  // a value (a constant) or {times: [...], values: [...]}, linear between the times
+  static TimeTable timeTable(const YamlField& f) {
+    if (!f.isMap()) return TimeTable::constant(f.number());
+    f.allowOnly({"times", "values"});
+    TimeTable table{f["times"].numbers(), f["values"].numbers()};
+    if (table.values.empty()) f["values"].fail("must hold at least one value");
+    try {
+      checkTimeTable(table, f.path());
+    } catch (const InputError& error) {
+      throw InputError(f.file() + ": " + error.what());
+    }
+    return table;
+  }
+
+  // urdf[].actuators: {JOINT: {torque, kp, kd, position, velocity, max_torque}}
+  void parseActuators(const YamlField& map, UrdfSpec& u) {
+    map.requireMap();
+    for (const std::string& joint : map.keys()) {
+      const YamlField f = map[joint];
+      f.requireMap();
+      f.allowOnly({"torque", "kp", "kd", "position", "velocity", "max_torque"});
+      UrdfSpec::Actuator a;
+      a.drive.joint = joint;
+      if (f.has("torque")) a.drive.torque = timeTable(f["torque"]);
+      a.drive.kp = f.nonNegative("kp", 0.0);
+      a.drive.kd = f.nonNegative("kd", 0.0);
+      if (f.has("position")) a.drive.position = timeTable(f["position"]);
+      if (f.has("velocity")) a.drive.velocity = timeTable(f["velocity"]);
+      a.max_torque_given = f.has("max_torque");
+      if (a.max_torque_given) a.drive.max_torque = f["max_torque"].positive();
+      if (a.drive.kp > 0.0 && a.drive.position.empty())
+        f["kp"].fail("needs a target: give position (a value or {times, values})");
+      if (a.drive.torque.empty() && !a.drive.servo())
+        f.fail(
+            "has neither a torque nor servo gains (kp, kd); a motor commanded from Python "
+            "starts from torque: 0");
+      u.actuators.push_back(a);
     }
   }
 

@@ -174,6 +174,54 @@ class Scenes(unittest.TestCase):
         self.assertLess(t, 100.0)
 
 
+class Actuators(unittest.TestCase):
+    TURNTABLE = os.path.join(SOURCE, "tests/data/urdf/turntable.urdf")
+
+    def turntable(self, actuator, scheme="moreau-jean"):
+        return sweep.Simulation({"dimension": 3,
+                                 "urdf": [{"file": self.TURNTABLE,
+                                           "actuators": {"spin": actuator}}],
+                                 "time": {"step": 1e-3, "end": 1.0}}, scheme=scheme)
+
+    def test_a_controller_commands_the_torque_each_step(self):
+        # tau = -2 v from Python on I = 0.5: v decays as exp(-4 t)
+        for scheme in ("moreau-jean", "catching-up"):
+            sim = self.turntable({"torque": 0}, scheme)
+            self.assertEqual(sim.actuators, ["spin"])
+            self.assertEqual(sim.dof_names, ["spin"])
+            sim.set_state(0.0, np.zeros(1), np.array([1.0]))
+
+            def damp(s):
+                s.command("spin", torque=-2.0 * s.v[0])
+            sim.run(t_end=0.5, callback=damp)
+            # the callback runs after each step: step 1 has no torque, step k the torque of
+            # v_{k-1}, an explicit damper: v_k = (1 - 4h)^(k-1)
+            self.assertAlmostEqual(sim.v[0], (1 - 4e-3) ** 499, delta=1e-12)
+            self.assertAlmostEqual(sim.actuator_torques()[0], -2.0 * (1 - 4e-3) ** 498,
+                                   delta=1e-12)
+
+    def test_a_commanded_position_overrides_the_table(self):
+        sim = self.turntable({"kp": 1e3, "kd": 60, "position": 0.0, "max_torque": 1e6})
+        sim.command("spin", position=0.5)
+        sim.run(t_end=1.0)
+        self.assertAlmostEqual(sim.q[0], 0.5, delta=1e-6)
+        sim.command("spin")  # back to the table
+        sim.run(t_end=2.0)
+        self.assertAlmostEqual(sim.q[0], 0.0, delta=1e-6)
+
+    def test_bad_commands_are_input_errors(self):
+        sim = self.turntable({"torque": 0})
+        with self.assertRaises(sweep.InputError) as error:
+            sim.command("wrist", torque=1.0)
+        self.assertIn("no actuator on a joint named 'wrist'", str(error.exception))
+        with self.assertRaises(sweep.InputError) as error:
+            sim.command("spin", torque=float("nan"))
+        self.assertIn("torque = nan must be finite", str(error.exception))
+        with self.assertRaises(sweep.InputError) as error:
+            sim.command("spin", position=1.0)
+        self.assertIn("no servo gains", str(error.exception))
+
+
 class Equations(unittest.TestCase):
     """Systems by their equations and constraints by functions from Python callables."""
 

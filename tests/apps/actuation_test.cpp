@@ -1,0 +1,188 @@
+// Joint actuators (framework/actuator.hpp, integrators/actuation.hpp) in both schemes: a motor
+// against Newton's law, a servo stiffer than the step can follow, the torque limit, and a
+// 6-dof arm tracking a smooth trajectory at kp = 1e5.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_file.hpp"
+#include "framework/error.hpp"
+#include "integrators/time_stepper.hpp"
+
+namespace sweep {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kUrdfFolder = std::string(SWEEP_SOURCE_DIR) + "/tests/data/urdf/";
+
+class Actuation : public ::testing::TestWithParam<const char*> {
+ protected:
+  // a turntable (tests/data/urdf/turntable.urdf: I = 0.5 kg m^2, effort 2 N m) with `actuator`
+  SceneFile turntable(const std::string& actuator, double h) const {
+    std::ostringstream text;
+    text << "dimension: 3\nurdf:\n  - file: turntable.urdf\n    actuators: {spin: " << actuator
+         << "}\nscheme: {name: " << GetParam() << "}\ntime: {step: " << h << ", end: 1}\n";
+    return loadSceneText(text.str(), kUrdfFolder + "actuated.yaml");
+  }
+};
+
+TEST_P(Actuation, AMotorTurnsTheTableAsNewtonSays) {
+  const SceneFile file = turntable("{torque: 1.0}", 1e-3);
+  const Scene scene = buildSceneFile(file);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 500; ++k) stepper.step();
+  // constant acceleration 1 / 0.5: the midpoint update is exact for it
+  const double t = stepper.time();
+  EXPECT_NEAR(stepper.q()[0], t * t, 1e-12);
+  EXPECT_NEAR(stepper.v()[0], 2.0 * t, 1e-12);
+  EXPECT_EQ(stepper.actuatorTorques()[0], 1.0);
+}
+
+TEST_P(Actuation, AServoStifferThanTheStepSettles) {
+  // omega h = sqrt(1e9 / 0.5) 1e-3 = 45, no damper: an explicit spring would blow up in a few
+  // steps, a midpoint (trapezoidal) one would ring for ever; backward Euler's spring decays by
+  // a factor 1/sqrt(2) a step in this limit
+  const SceneFile file = turntable("{kp: 1.0e9, kd: 0, position: 1, max_torque: 1.0e12}", 1e-3);
+  const Scene scene = buildSceneFile(file);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  double worst = 0.0;
+  for (int k = 0; k < 100; ++k) {
+    stepper.step();
+    worst = std::max(worst, std::abs(stepper.q()[0] - 1.0));
+  }
+  EXPECT_LE(worst, 1.0);
+  EXPECT_NEAR(stepper.q()[0], 1.0, 1e-9);
+  EXPECT_NEAR(stepper.v()[0], 0.0, 1e-6);
+}
+
+TEST_P(Actuation, TheTorqueLimitHoldsUntilTheServoCanFollow) {
+  // the URDF's effort (2 N m) bounds the servo: 4 rad/s^2 until it brakes onto its target
+  const SceneFile file = turntable("{kp: 1.0e4, kd: 1000, position: 0.1}", 1e-3);
+  const Scene scene = buildSceneFile(file);
+  ASSERT_EQ(scene.model.actuators[0].max_torque, 2.0);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  for (int k = 0; k < 100; ++k) {
+    stepper.step();
+    ASSERT_TRUE(stepper.actuatorsSaturated()[0]) << "step " << k + 1;
+    ASSERT_EQ(stepper.actuatorTorques()[0], 2.0);
+  }
+  EXPECT_NEAR(stepper.q()[0], 2.0 * 0.1 * 0.1, 1e-12);
+  long switches = 0;
+  bool last = true;
+  for (int k = 0; k < 2900; ++k) {
+    stepper.step();
+    ASSERT_LE(std::abs(stepper.actuatorTorques()[0]), 2.0 + 1e-12);
+    const bool now = stepper.actuatorsSaturated()[0];
+    switches += now != last;
+    last = now;
+  }
+  // accelerates, brakes at the limit, then follows: no chattering between the two
+  EXPECT_LE(switches, 4);
+  EXPECT_FALSE(last);
+  EXPECT_NEAR(stepper.q()[0], 0.1, 1e-9);
+}
+
+// 1/2 amplitude (1 - cos(pi t / T)) sampled every 5 ms: starts at rest on q = 0
+std::string cosineTable(double amplitude, double period) {
+  std::ostringstream times, values;
+  times.precision(17);
+  values.precision(17);
+  for (int k = 0; k <= 200; ++k) {
+    const double t = period * k / 200.0;
+    times << (k ? ", " : "") << t;
+    values << (k ? ", " : "") << 0.5 * amplitude * (1.0 - std::cos(M_PI * t / period));
+  }
+  return "{times: [" + times.str() + "], values: [" + values.str() + "]}";
+}
+
+TEST_P(Actuation, ASixDofArmTracksATrajectoryAtKp1e5) {
+  const double amplitudes[] = {0.8, 0.4, 0.5, 1.0, 0.5, 1.0};
+  const double kd[] = {600, 600, 300, 100, 100, 30};
+  std::ostringstream text;
+  text << "dimension: 3\ngravity: [0, 0, -9.81]\nurdf:\n  - file: arm6.urdf\n"
+          "    position: [0, 0, 0.1]\n    actuators:\n";
+  for (int j = 0; j < 6; ++j)
+    text << "      joint" << j + 1 << ": {kp: 1.0e5, kd: " << kd[j]
+         << ", max_torque: 1.0e4, position: " << cosineTable(amplitudes[j], 1.0) << "}\n";
+  text << "scheme: {name: " << GetParam() << "}\ntime: {step: 1.0e-3, end: 1.2}\n"
+       << "output: {stats: true}\n";
+  const SceneFile file = loadSceneText(text.str(), kUrdfFolder + "arm_tracking.yaml");
+  const fs::path out =
+      fs::temp_directory_path() / ("sweep_arm_tracking_" + std::string(GetParam()));
+  fs::remove_all(out);
+  RunOptions options;
+  options.out_dir = out.string();
+  const RunSummary summary = runScene(buildSceneFile(file), file.run, options);
+  ASSERT_EQ(summary.actuators.size(), 6u);
+  for (const ActuatorSummary& a : summary.actuators) {
+    EXPECT_LT(a.max_tracking_error, 1e-3) << a.joint;
+    EXPECT_GT(a.max_abs_torque, 0.0) << a.joint;
+    EXPECT_EQ(a.saturated_steps, 0) << a.joint;
+  }
+  // the files carry the same figures
+  std::ifstream summary_file(out / "summary.json");
+  const nlohmann::json json = nlohmann::json::parse(summary_file);
+  EXPECT_EQ(json["actuators"]["joint2"]["max_tracking_error"].get<double>(),
+            summary.actuators[1].max_tracking_error);
+  std::ifstream csv(out / "actuators.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("step,t,joint1:position,joint1:target,joint1:torque,joint1:saturated", 0),
+            0u);
+  long rows = 0;
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, summary.steps);
+  fs::remove_all(out);
+}
+
+TEST_P(Actuation, TheArmPushesTwoBlocksAcrossTheTable) {
+  const std::string path =
+      std::string(SWEEP_SOURCE_DIR) + "/examples/archetypes/arm_pushes_blocks.yaml";
+  const SceneFile file = loadSceneFile(path, {std::string("scheme.name=") + GetParam()});
+  const Scene scene = buildSceneFile(file);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  ActuatorTally tally(scene.model);
+  const long steps = stepCount(0.0, file.run.t_end, file.run.scheme.h);
+  for (long k = 0; k < steps; ++k) {
+    stepper.step();
+    ASSERT_TRUE(stepper.q().allFinite()) << "step " << k + 1;
+    tally.add(scene.model, stepper);
+  }
+  const auto position = [&](const char* body) -> Vector3 {
+    return stepper.q().segment<3>(scene.model.bodies[scene.model.bodyIndex(body)].q_index);
+  };
+  // swept from y = 0 and 0.2 towards +y, each left resting on the table (2 cm half-height)
+  EXPECT_GT(position("block_a").y(), 0.15);
+  EXPECT_GT(position("block_b").y(), 0.35);
+  for (const char* block : {"block_a", "block_b"}) EXPECT_NEAR(position(block).z(), 0.03, 1e-3);
+  const std::vector<ActuatorSummary> actuators = tally.summary(scene.model);
+  for (std::size_t a = 0; a < actuators.size(); ++a) {
+    EXPECT_LE(actuators[a].max_abs_torque, scene.model.actuators[a].max_torque)
+        << actuators[a].joint;
+    EXPECT_LT(actuators[a].max_tracking_error, 0.05) << actuators[a].joint;
+  }
+  // joint 1 back on its target once the sweep ends and the wrist has lifted
+  EXPECT_NEAR(stepper.q()[scene.model.actuators[0].q_index], 0.6, 1e-3);
+}
+
+INSTANTIATE_TEST_SUITE_P(BothSchemes, Actuation, ::testing::Values("moreau-jean", "catching-up"),
+                         [](const ::testing::TestParamInfo<const char*>& param) {
+                           return std::string(param.param) == "moreau-jean" ? "MoreauJean"
+                                                                            : "CatchingUp";
+                         });
+
+}  // namespace
+}  // namespace sweep
