@@ -281,7 +281,22 @@ class Simulation {
       ba(c) = k.body_a.kind == BodyRef::Kind::Dynamic ? k.body_a.index : -1;
       bb(c) = k.body_b.kind == BodyRef::Kind::Dynamic ? k.body_b.index : -1;
     }
+    // the bodies' names: a dynamic body's, a driven one's, or a fixed geometry's own
+    const Model& model = scene_->model;
+    const ContactModel& cmodel = scene_->cmodel;
+    auto nameOf = [&](const BodyRef& ref, int geometry) -> std::string {
+      if (ref.kind == BodyRef::Kind::Dynamic) return model.bodies[ref.index].name;
+      if (ref.kind == BodyRef::Kind::Driven) return model.driven_bodies[ref.index].name;
+      return cmodel.geometries[geometry].name;
+    };
+    py::list name_a, name_b;
+    for (py::ssize_t c = 0; c < n; ++c) {
+      name_a.append(nameOf(contacts[c].body_a, contacts[c].key.geometry_a));
+      name_b.append(nameOf(contacts[c].body_b, contacts[c].key.geometry_b));
+    }
     py::dict d;
+    d["name_a"] = name_a;
+    d["name_b"] = name_b;
     d["point_a"] = point_a;
     d["point_b"] = point_b;
     d["normal"] = normal;
@@ -332,6 +347,42 @@ class Simulation {
       out.append(d);
     }
     return out;
+  }
+
+  // a body of the model at the current state: its frame's world pose, the world velocity of
+  // its origin and its world angular velocity
+  py::dict body(const std::string& name) {
+    const Model& model = scene_->model;
+    int index = -1;
+    for (std::size_t b = 0; b < model.bodies.size(); ++b)
+      if (model.bodies[b].name == name) index = static_cast<int>(b);
+    if (index < 0) throw InputError("body: the scene has no dynamic body named '" + name + "'");
+    forwardKinematics(model, data_, stepper_->q(), stepper_->v());
+    const Pose& pose = data_.world_pose[index];
+    const Vector6& twist = data_.velocity[index];  // body coordinates (w, v)
+    py::dict d;
+    d["position"] = Vector3(pose.translation);
+    d["rotation"] = Matrix3(pose.rotation);
+    d["velocity"] = Vector3(pose.rotation * twist.tail<3>());
+    d["angular_velocity"] = Vector3(pose.rotation * twist.head<3>());
+    return d;
+  }
+
+  // a joint's coordinates and velocities, by its name, and where they sit in q and v
+  py::dict joint(const std::string& name) {
+    const Model& model = scene_->model;
+    int index = -1;
+    for (std::size_t b = 0; b < model.bodies.size(); ++b)
+      if (model.bodies[b].joint_name == name) index = static_cast<int>(b);
+    if (index < 0) throw InputError("joint: the scene has no joint named '" + name + "'");
+    const Body& b = model.bodies[index];
+    py::dict d;
+    d["q"] = VectorX(stepper_->q().segment(b.q_index, b.joint.nq()));
+    d["v"] = VectorX(stepper_->v().segment(b.v_index, b.joint.nv()));
+    d["q_index"] = b.q_index;
+    d["v_index"] = b.v_index;
+    d["body"] = b.name;
+    return d;
   }
 
   const TimeStepper& stepper() const { return *stepper_; }
@@ -714,7 +765,14 @@ PYBIND11_MODULE(sweep, m) {
            "Step to t_end (default: the scene's end); callback(sim) after each step may return "
            "False to stop. Returns the number of steps.")
       .def("set_state", &Simulation::setState, py::arg("t"), py::arg("q"), py::arg("v"))
-      .def("contacts", &Simulation::contacts, "The last step's contacts as numpy arrays.")
+      .def("contacts", &Simulation::contacts,
+           "The last step's contacts as numpy arrays, and the bodies' names (name_a, name_b: a "
+           "dynamic or driven body's, or a fixed shape's).")
+      .def("body", &Simulation::body, py::arg("name"),
+           "A body at the current state: position and rotation of its frame in world, the "
+           "world velocity of its origin and its world angular velocity.")
+      .def("joint", &Simulation::joint, py::arg("name"),
+           "A joint at the current state: its q and v entries, their indices, its body.")
       .def("shapes", &Simulation::shapes,
            "Every bounded shape at the current state, in world coordinates: a dict each with "
            "name, type, kind (dynamic, driven, world), body, position, rotation, radius, and "

@@ -209,6 +209,26 @@ class Actuators(unittest.TestCase):
         sim.run(t_end=2.0)
         self.assertAlmostEqual(sim.q[0], 0.0, delta=1e-6)
 
+    def test_names_of_joints_bodies_and_contacts(self):
+        sim = sweep.Simulation(os.path.join(SOURCE, "examples/archetypes/arm_pushes_blocks.yaml"),
+                               scheme="catching-up")
+        sim.run(t_end=1.75)  # the wrist pushes block_a
+        joint = sim.joint("joint2")
+        self.assertEqual(sim.dof_names[joint["v_index"]], "joint2")
+        self.assertEqual(joint["q"][0], sim.q[joint["q_index"]])
+        self.assertEqual(joint["body"], "link2")
+        block = sim.body("block_a")
+        q_block = sim.q[0:3]  # the scene's bodies come first
+        np.testing.assert_array_equal(block["position"], q_block)
+        contacts = sim.contacts()
+        pairs = {tuple(sorted(p)) for p in zip(contacts["name_a"], contacts["name_b"])}
+        self.assertIn(("block_a", "table"), pairs)
+        self.assertIn(("block_a", "link6"), pairs)
+        with self.assertRaises(sweep.InputError):
+            sim.body("nobody")
+        with self.assertRaises(sweep.InputError):
+            sim.joint("joint9")
+
     def test_bad_commands_are_input_errors(self):
         sim = self.turntable({"torque": 0})
         with self.assertRaises(sweep.InputError) as error:
