@@ -245,15 +245,12 @@ ContactModel ContactModelBuilder::build() const {
       break;
   }
 
-  if (settings_.floor >= 0.0) {
-    cm.margin_floor = settings_.floor;
-  } else {
-    double smallest = std::numeric_limits<double>::infinity();
-    for (const Geometry& g : geometries_)
-      if (g.body.hasDofs() && !isUnbounded(g.shape))
-        smallest = std::min(smallest, characteristicSize(g.shape));
-    cm.margin_floor = std::isfinite(smallest) ? 1e-3 * smallest : 0.0;
-  }
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const Geometry& g : geometries_)
+    if (g.body.hasDofs() && !isUnbounded(g.shape))
+      smallest = std::min(smallest, characteristicSize(g.shape));
+  cm.smallest_size = std::isfinite(smallest) ? smallest : 0.0;
+  cm.margin_floor = settings_.floor >= 0.0 ? settings_.floor : 1e-3 * cm.smallest_size;
 
   for (const Geometry& g : geometries_) {
     ContactModel::Traits f;

@@ -107,6 +107,9 @@ struct ContactModel {
   DetectionPath path = DetectionPath::Fcl;
   std::string path_reason;  // one line for the run log: why this path was chosen
   double margin_floor = 0.0;
+  // the smallest size (radius or half extent) of a moving bounded shape, 0 without one: the
+  // scale penetrations are read against
+  double smallest_size = 0.0;
   bool frictionless = true;  // every law that can apply has mu = 0 and mu_r = 0
   bool rolling = false;      // some law that can apply has mu_r > 0: rolling rows are built
   // periodic scenes: the q index of each free body's coordinate along the periodic axis and

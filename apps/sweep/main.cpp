@@ -73,6 +73,14 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
 
 void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {
   out << std::setprecision(4);
+  // a length as a share of the smallest moving shape's radius or half extent
+  auto ofSmallest = [&](double length) {
+    if (!(s.smallest_size > 0.0)) return std::string();
+    std::ostringstream text;
+    text << std::setprecision(3) << " (" << 100.0 * length / s.smallest_size
+         << " % of the smallest size, " << s.smallest_size << " m)";
+    return text.str();
+  };
   out << "\n"
       << s.scheme << (s.interrupted ? " (INTERRUPTED)" : "") << ": " << s.steps << " steps of "
       << s.dt << " s to t = " << s.t_reached << " s\n"
@@ -81,8 +89,10 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
       << "  iterations per step: mean " << s.iterations.mean << ", p50 " << s.iterations.p50
       << ", p95 " << s.iterations.p95 << ", max " << s.iterations.max << "; cap hit in "
       << s.cap_hit_steps << " steps\n"
-      << "  penetration: cumulative " << s.penetration_cumulative << " m, time integral "
-      << s.penetration_time_integral << " m s, peak " << s.penetration_peak << " m\n"
+      << "  penetration: peak " << s.penetration_peak << " m" << ofSmallest(s.penetration_peak)
+      << ", mean per overlapping contact " << s.penetration_mean << " m"
+      << ofSmallest(s.penetration_mean) << "; cumulative " << s.penetration_cumulative
+      << " m, time integral " << s.penetration_time_integral << " m s\n"
       << "  active contacts: mean " << s.mean_active << ", max " << s.max_active << "\n"
       << "  energy: " << s.energy_initial << " J -> " << s.energy_final << " J\n";
   if (s.max_solves > 1)
@@ -125,7 +135,8 @@ static int runCommand(int argc, char** argv) {
   run->add_option("--dt", dt, "time step h (s)");
   run->add_option("--t-end", t_end, "end time (s)");
   run->add_option("--out", out_dir, "output folder")->default_val("results");
-  run->add_flag("--quiet", quiet, "no progress");
+  run->add_flag("--quiet", quiet,
+                "no progress bar; the description and the summary are still printed");
   int threads = 0;
   run->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
   // the row storages are a benchmark's ablation, not a scene's: every choice gives the same
@@ -154,7 +165,7 @@ static int runCommand(int argc, char** argv) {
   bench->add_option("--t-end", t_end, "end time (s)");
   bench->add_option("--out", out_dir, "output folder")->default_val("bench");
   bench->add_flag("--no-plots", bench_options.no_plots, "write bench.csv only");
-  bench->add_flag("--quiet", quiet, "no progress");
+  bench->add_flag("--quiet", quiet, "no progress log; the table is still printed");
   bench->add_option("--threads", threads, "threads (0: every core; default: scheme.threads, 0)");
   bench->add_option("--row-storage", row_storage, "as run's --row-storage")->check(row_storages);
 

@@ -477,6 +477,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   IterationHistogram total, stage1, stage2;
   std::vector<int> per_step;
   double active_sum = 0.0, candidate_sum = 0.0, solves_sum = 0.0;
+  double overlapping = 0.0;  // contacts overlapping at step ends, summed over steps
   double next_snapshot = 0.0;
   if (vtk) {
     vtk->write(stepper);
@@ -497,6 +498,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.penetration_cumulative += s.penetration_sum;
     summary.penetration_time_integral += h * s.penetration_sum;
     summary.penetration_peak = std::max(summary.penetration_peak, s.penetration_max);
+    overlapping += s.penetration_count;
     total.add(s.iterations_stage1 + s.iterations_stage2);
     stage1.add(s.iterations_stage1);
     stage2.add(s.iterations_stage2);
@@ -544,6 +546,8 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   summary.energy_final = stepper.energy();
   summary.mean_active = summary.steps > 0 ? active_sum / static_cast<double>(summary.steps) : 0.0;
+  summary.penetration_mean = overlapping > 0.0 ? summary.penetration_cumulative / overlapping : 0.0;
+  summary.smallest_size = scene.cmodel.smallest_size;
   if (summary.steps > 0) {
     summary.mean_candidates = candidate_sum / static_cast<double>(summary.steps);
     summary.mean_solves = solves_sum / static_cast<double>(summary.steps);
@@ -599,9 +603,14 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
   j["interrupted"] = s.interrupted;
   j["cpu_seconds"] = s.cpu_seconds;
   j["wall_seconds"] = s.wall_seconds;
+  const double size = s.smallest_size > 0.0 ? s.smallest_size : std::nan("");
   j["penetration"] = {{"cumulative", s.penetration_cumulative},
                       {"time_integral", s.penetration_time_integral},
-                      {"peak", s.penetration_peak}};
+                      {"peak", s.penetration_peak},
+                      {"mean_per_contact", s.penetration_mean},
+                      {"smallest_size", s.smallest_size},
+                      {"peak_of_smallest_size", s.penetration_peak / size},
+                      {"mean_of_smallest_size", s.penetration_mean / size}};
   nlohmann::ordered_json iterations = distribution(s.iterations);
   iterations["cap_hit_steps"] = s.cap_hit_steps;
   iterations["stage1"] = distribution(s.iterations_stage1);

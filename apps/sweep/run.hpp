@@ -92,6 +92,9 @@ struct RunSummary {
   double penetration_cumulative = 0.0;     // sum over steps of the end-of-step sum of max(0,-g)
   double penetration_time_integral = 0.0;  // the same sum weighted by h
   double penetration_peak = 0.0;
+  // the mean overlap of an overlapping contact at a step's end, over the run, and the scale
+  // both are read against (ContactModel::smallest_size)
+  double penetration_mean = 0.0, smallest_size = 0.0;
   Distribution iterations;  // per step: stage 1 + stage 2
   Distribution iterations_stage1, iterations_stage2;
   long cap_hit_steps = 0;

@@ -74,6 +74,14 @@ class Run(unittest.TestCase):
         pen = sum(float(r["penetration_sum"]) for r in rows)
         self.assertAlmostEqual(s["penetration"]["cumulative"], pen, delta=1e-12 * max(pen, 1e-30))
         self.assertAlmostEqual(s["penetration"]["peak"], max(float(r["penetration_max"]) for r in rows))
+        overlapping = sum(int(r["penetration_count"]) for r in rows)
+        self.assertGreater(overlapping, 0)
+        self.assertAlmostEqual(s["penetration"]["mean_per_contact"], pen / overlapping,
+                               delta=1e-12 * pen / overlapping)
+        size = s["penetration"]["smallest_size"]
+        self.assertGreater(size, 0)
+        self.assertAlmostEqual(s["penetration"]["peak_of_smallest_size"],
+                               s["penetration"]["peak"] / size)
         totals = [int(r["iterations_stage1"]) + int(r["iterations_stage2"]) for r in rows]
         self.assertEqual(s["iterations"]["max"], max(totals))
         self.assertAlmostEqual(s["iterations"]["mean"], sum(totals) / len(totals))
