@@ -83,12 +83,31 @@ void addJointActuator(Model& model, JointActuator actuator, const std::string& w
   if (!(actuator.max_torque > 0.0))
     throw InputError(where + ".max_torque = " + number(actuator.max_torque) +
                      " must be positive (leave it out for no limit)");
-  if (actuator.torque.empty() && !actuator.servo())
+  if (actuator.prescribed && actuator.position.empty())
+    throw InputError(where + ": a prescribed motion needs its position (a value or a table)");
+  if (actuator.prescribed && (actuator.servo() || !actuator.torque.empty()))
+    throw InputError(where + ": a prescribed joint follows its position exactly: it takes no " +
+                     "torque and no servo gains");
+  if (!actuator.prescribed && actuator.torque.empty() && !actuator.servo())
     throw InputError(where + ": neither a torque nor servo gains (kp, kd); a motor commanded " +
                      "from Python starts from `torque: 0`");
   actuator.body = body;
   actuator.q_index = b.q_index;
   actuator.v_index = b.v_index;
+  if (actuator.prescribed) {
+    ConstraintFunction motion;
+    motion.name = "prescribed " + actuator.joint;
+    motion.gap = [q = b.q_index](const VectorX& x) { return x[q]; };
+    motion.normal = [v = b.v_index, nv = model.nv](const VectorX&) {
+      VectorX w = VectorX::Zero(nv);
+      w[v] = 1.0;
+      return w;
+    };
+    motion.bilateral = true;
+    motion.drive = [position = actuator.position](double t) { return position.at(t); };
+    actuator.constraint = static_cast<int>(model.constraints.size());
+    model.constraints.push_back(std::move(motion));
+  }
   model.actuators.push_back(std::move(actuator));
 }
 

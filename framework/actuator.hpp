@@ -34,6 +34,11 @@ struct JointActuator {
   TimeTable position;  // q_ref; empty: none (then kp is 0)
   TimeTable velocity;  // v_ref; empty: the rate of `position` (0 without one)
   double max_torque = std::numeric_limits<double>::infinity();
+  // prescribed motion: the joint follows `position` exactly, as a rheonomic bilateral
+  // constraint of both schemes' solves (Model::constraints[constraint]), its reaction the
+  // actuator's torque (not bounded by max_torque); no motor, no servo
+  bool prescribed = false;
+  int constraint = -1;
 
   bool servo() const { return kp > 0.0 || kd > 0.0; }
   double targetPosition(double t) const { return position.empty() ? 0.0 : position.at(t); }
@@ -42,10 +47,11 @@ struct JointActuator {
   }
 };
 
-// Binds `actuator` to its joint by name and adds it to model.actuators; InputError starting with
-// `where` when the joint is absent, not a 1-dof joint or already actuated, a gain is negative
-// or not finite, kp has no position target, a table is not strictly increasing in time or holds
-// a value that is not finite, or max_torque is not positive.
+// Binds `actuator` to its joint by name and adds it to model.actuators (a prescribed one with its
+// constraint to model.constraints); InputError starting with `where` when the joint is absent,
+// not a 1-dof joint or already actuated, a gain is negative or not finite, kp has no position
+// target, a table is not strictly increasing in time or holds a value that is not finite,
+// max_torque is not positive, or a prescribed motion has no position or also a motor or servo.
 void addJointActuator(Model& model, JointActuator actuator, const std::string& where);
 // The same checks on a table alone ("<where>: ...")
 void checkTimeTable(const TimeTable& table, const std::string& where);

@@ -78,6 +78,9 @@ struct ConstraintFunction {
   // g(q) = 0 rather than >= 0 (a closed loop): its impulse takes either sign, it is in every
   // solve, and it has no friction or restitution
   bool bilateral = false;
+  // a rheonomic bilateral constraint g(q, t) = gap(q) - drive(t) = 0 (a prescribed joint
+  // motion), held at each step's end (integrators/contact_assembly.cpp; null: none)
+  std::function<double(double t)> drive;
 };
 
 // A one-sided bound on a 1-dof joint, kept as a unilateral constraint for the contact solve:

@@ -18,6 +18,12 @@ void actuatedFreeVelocity(const StepModel& m, StepData& d) {
     const JointActuator& actuator = model.actuators[a];
     const ActuatorCommand& command = d.actuator_command[a];
     const int j = actuator.v_index;
+    if (actuator.prescribed) {  // a row of the solve; its reaction is read after it
+      d.actuator_explicit[a] = d.actuator_damping[a] = 0.0;
+      d.actuator_saturated[a] = 0;
+      d.actuator_target[a] = actuator.position.at(t_end);
+      continue;
+    }
     double torque = !std::isnan(command.torque) ? command.torque
                     : actuator.torque.empty()   ? 0.0
                                                 : actuator.torque.at(t_m);
@@ -99,9 +105,14 @@ bool holdActuatorLimits(const StepModel& m, StepData& d) {
 }
 
 void actuatorTorques(const StepModel& m, StepData& d) {
-  // motors and saturated servos applied what actuatedFreeVelocity set
+  // motors and saturated servos applied what actuatedFreeVelocity set; a prescribed joint's
+  // torque is its constraint's reaction
   const Model& model = m.model;
   for (std::size_t a = 0; a < model.actuators.size(); ++a) {
+    if (model.actuators[a].prescribed) {
+      d.actuator_torque[a] = d.constraint_impulse[model.actuators[a].constraint].x() / m.settings.h;
+      continue;
+    }
     const double c = d.actuator_damping[a];
     if (c != 0.0 && !d.actuator_saturated[a])
       d.actuator_torque[a] = d.actuator_explicit[a] - c * d.v_free[model.actuators[a].v_index];

@@ -22,6 +22,9 @@
 //   - after the contact solve: a servo whose implicit torque at v_{k+1} is past its limit
 //     (contacts pushed on it) is held at it and the step's solve is done again
 //     (holdActuatorLimits, TimeStepper::step).
+// A prescribed joint is no force here: its motion is a rheonomic bilateral constraint of the
+// solve (ConstraintFunction::drive, integrators/contact_assembly.cpp), and its torque the
+// constraint's impulse over h.
 #include <limits>
 #include <vector>
 

@@ -223,7 +223,18 @@ void ProblemAssembly::appendConstraints() {
   const int limit_count = static_cast<int>(model.limits.size());
   for (int k = 0; k < static_cast<int>(model.constraints.size()); ++k) {
     const ConstraintFunction& f = model.constraints[k];
-    const double gap = f.gap(q_m);
+    double gap = f.gap(q_m);
+    // A driven one, g(q, t) = gap(q) - drive(t): the row's known velocity asks
+    //   W_N^T v_{k+1} = w + (drive(t_{k+1}) - gap(q_m) - tau w) / (2 tau),
+    // w the drive's mean rate over the step: on a smooth motion w itself, and a drift from it
+    // (a kink of the motion, the solve's tolerance) is gone two steps later. Correcting the
+    // whole drift at once (1 / tau) would make the midpoint update ring: v_{k+1} = -v_k.
+    Vector3 known = Vector3::Zero();
+    if (f.drive) {
+      const double rate = (f.drive(t + tau) - f.drive(t - tau)) / (2.0 * tau);
+      known.x() = -(rate + (f.drive(t + tau) - gap - tau * rate) / (2.0 * tau));
+      gap = 0.0;
+    }
     const auto direction = [&](const std::function<VectorX(const VectorX&)>& of, const char* what) {
       VectorX w = of ? of(q_m) : VectorX::Zero(model.nv);
       if (w.size() != model.nv || !w.allFinite() || !std::isfinite(gap))
@@ -259,7 +270,7 @@ void ProblemAssembly::appendConstraints() {
             ++first;
           }
         },
-        Vector3::Zero(), gap, f.friction, f.restitution);
+        known, gap, f.friction, f.restitution);
     if (f.bilateral) {
       p.bilateral.resize(p.size(), 0);
       p.bilateral.back() = 1;

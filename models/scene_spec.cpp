@@ -443,9 +443,20 @@ Scene buildScene(const SceneSpec& spec) {
       JointActuator drive = a.drive;
       drive.joint = b.joint_name;
       if (!a.max_torque_given) drive.max_torque = b.effort_limit;
-      addJointActuator(
-          scene.model, drive,
-          spec.source + ": urdf[" + std::to_string(u) + "].actuators." + a.drive.joint);
+      const std::string where =
+          spec.source + ": urdf[" + std::to_string(u) + "].actuators." + a.drive.joint;
+      addJointActuator(scene.model, drive, where);
+      // a prescribed joint starts on its motion; one set elsewhere is an error
+      if (!drive.prescribed) continue;
+      const double start = drive.position.at(0.0);
+      if (!joint_given[model.jointIndex(drive.joint)]) {
+        scene.q0[b.q_index] = start;
+        scene.v0[b.v_index] = drive.targetVelocity(0.0);
+      } else if (std::abs(scene.q0[b.q_index] - start) > kMaxStartJointViolation) {
+        throw InputError(where + ": the joint starts at " + formatValue(scene.q0[b.q_index]) +
+                         " but its prescribed motion at " + formatValue(start) +
+                         "; leave it out of joints: to start it there");
+      }
     }
   scene.forces = sceneLoads(spec, model);
   scene.cmodel = cb.build();

@@ -728,6 +728,8 @@ PYBIND11_MODULE(sweep, m) {
                 if (value && !std::isfinite(*value))
                   throw InputError(where + ": " + name + " = " + exactNumber(*value) +
                                    " must be finite");
+              if (actuators[a].prescribed)
+                throw InputError(where + ": the joint's motion is prescribed by the scene");
               if ((position || velocity) && !actuators[a].servo())
                 throw InputError(where +
                                  ": the actuator has no servo gains (kp, kd) to follow "

@@ -105,10 +105,11 @@ void emitTimeTable(YAML::Emitter& out, const char* key, const TimeTable& table) 
 void emitActuator(YAML::Emitter& out, const UrdfSpec::Actuator& a) {
   const JointActuator& d = a.drive;
   out << YAML::Key << d.joint << YAML::Value << YAML::Flow << YAML::BeginMap;
+  if (d.prescribed) emitTimeTable(out, "prescribed", d.position);
   emitTimeTable(out, "torque", d.torque);
   if (d.kp > 0.0) out << YAML::Key << "kp" << YAML::Value << d.kp;
   if (d.kd > 0.0) out << YAML::Key << "kd" << YAML::Value << d.kd;
-  emitTimeTable(out, "position", d.position);
+  if (!d.prescribed) emitTimeTable(out, "position", d.position);
   emitTimeTable(out, "velocity", d.velocity);
   if (a.max_torque_given) out << YAML::Key << "max_torque" << YAML::Value << d.max_torque;
   out << YAML::EndMap;

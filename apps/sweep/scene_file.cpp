@@ -674,7 +674,7 @@ class SceneParser {
     for (const std::string& joint : map.keys()) {
       const YamlField f = map[joint];
       f.requireMap();
-      f.allowOnly({"torque", "kp", "kd", "position", "velocity", "max_torque"});
+      f.allowOnly({"torque", "kp", "kd", "position", "velocity", "max_torque", "prescribed"});
       UrdfSpec::Actuator a;
       a.drive.joint = joint;
       if (f.has("torque")) a.drive.torque = timeTable(f["torque"]);
@@ -682,11 +682,18 @@ class SceneParser {
       a.drive.kd = f.nonNegative("kd", 0.0);
       if (f.has("position")) a.drive.position = timeTable(f["position"]);
       if (f.has("velocity")) a.drive.velocity = timeTable(f["velocity"]);
+      if (f.has("prescribed")) {
+        for (const char* other : {"torque", "kp", "kd", "position", "velocity"})
+          if (f.has(other))
+            f[other].fail("a prescribed joint follows its motion exactly: give prescribed alone");
+        a.drive.prescribed = true;
+        a.drive.position = timeTable(f["prescribed"]);
+      }
       a.max_torque_given = f.has("max_torque");
       if (a.max_torque_given) a.drive.max_torque = f["max_torque"].positive();
       if (a.drive.kp > 0.0 && a.drive.position.empty())
         f["kp"].fail("needs a target: give position (a value or {times, values})");
-      if (a.drive.torque.empty() && !a.drive.servo())
+      if (!a.drive.prescribed && a.drive.torque.empty() && !a.drive.servo())
         f.fail(
             "has neither a torque nor servo gains (kp, kd); a motor commanded from Python "
             "starts from torque: 0");
