@@ -54,7 +54,7 @@ void actuatedFreeVelocity(const StepModel& m, StepData& d) {
       d.added_mass[j] += h * damping;
     }
   }
-  // holdLimits: the torque limits on the contact-free velocity. tau = clamp(tau_e - c v, +-max)
+  // The torque limits on the contact-free velocity. tau = clamp(tau_e - c v, +-max)
   // with v a function of every servo's tau is a box-constrained program in the servos' torques
   // (min 1/2 r^T (C^-1 + h S^T M^-1 S) r - (C^-1 tau_e - S^T v_0)^T r, r in the box), solved
   // by its primal-dual active set (Hintermueller, Ito & Kunisch 2003): a servo is at its limit

@@ -18,7 +18,7 @@
 // Torque limits, |tau| <= max_torque, in two places:
 //   - on the contact-free velocity: tau = clamp(tau_e - c v, +-max) with v depending on every
 //     servo's tau is a box-constrained program in the torques, solved by its primal-dual active
-//     set (holdLimits in actuation.cpp): a servo at its limit applies +-max_torque as a motor;
+//     set (actuatedFreeVelocity's rounds): a servo at its limit applies +-max_torque as a motor;
 //   - after the contact solve: a servo whose implicit torque at v_{k+1} is past its limit
 //     (contacts pushed on it) is held at it and the step's solve is done again
 //     (holdActuatorLimits, TimeStepper::step).

@@ -349,14 +349,20 @@ class Simulation {
     return out;
   }
 
+  // the body whose `field` (its name, its joint's name) is `name`; InputError "<missing> named
+  // 'NAME'" when there is none
+  int bodyNamed(std::string Body::*field, const std::string& name, const char* missing) const {
+    const std::vector<Body>& bodies = scene_->model.bodies;
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      if (bodies[b].*field == name) return static_cast<int>(b);
+    throw InputError(std::string(missing) + " named '" + name + "'");
+  }
+
   // a body of the model at the current state: its frame's world pose, the world velocity of
   // its origin and its world angular velocity
   py::dict body(const std::string& name) {
     const Model& model = scene_->model;
-    int index = -1;
-    for (std::size_t b = 0; b < model.bodies.size(); ++b)
-      if (model.bodies[b].name == name) index = static_cast<int>(b);
-    if (index < 0) throw InputError("body: the scene has no dynamic body named '" + name + "'");
+    const int index = bodyNamed(&Body::name, name, "body: the scene has no dynamic body");
     forwardKinematics(model, data_, stepper_->q(), stepper_->v());
     const Pose& pose = data_.world_pose[index];
     const Vector6& twist = data_.velocity[index];  // body coordinates (w, v)
@@ -370,12 +376,8 @@ class Simulation {
 
   // a joint's coordinates and velocities, by its name, and where they sit in q and v
   py::dict joint(const std::string& name) {
-    const Model& model = scene_->model;
-    int index = -1;
-    for (std::size_t b = 0; b < model.bodies.size(); ++b)
-      if (model.bodies[b].joint_name == name) index = static_cast<int>(b);
-    if (index < 0) throw InputError("joint: the scene has no joint named '" + name + "'");
-    const Body& b = model.bodies[index];
+    const Body& b =
+        scene_->model.bodies[bodyNamed(&Body::joint_name, name, "joint: the scene has no joint")];
     py::dict d;
     d["q"] = VectorX(stepper_->q().segment(b.q_index, b.joint.nq()));
     d["v"] = VectorX(stepper_->v().segment(b.v_index, b.joint.nv()));

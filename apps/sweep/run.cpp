@@ -76,28 +76,6 @@ struct StreamedFile {
   std::ofstream out;
 };
 
-// actuators.csv: per step, each actuator's joint position, target (empty: none), torque (force)
-// applied over the step, and whether the step held it at its limit
-void writeActuatorHeader(std::ostream& out, const Model& model) {
-  out << "step,t";
-  for (const JointActuator& a : model.actuators)
-    out << ',' << a.joint << ":position," << a.joint << ":target," << a.joint << ":torque,"
-        << a.joint << ":saturated";
-  out << '\n';
-}
-
-void appendActuatorRow(std::ostream& out, const Model& model, const TimeStepper& stepper) {
-  out << stepper.stats().step << ',' << exactNumber(stepper.time());
-  for (std::size_t a = 0; a < model.actuators.size(); ++a) {
-    const double target = stepper.actuatorTargets()[a];
-    out << ',' << exactNumber(stepper.q()[model.actuators[a].q_index]) << ','
-        << (std::isnan(target) ? std::string() : exactNumber(target)) << ','
-        << exactNumber(stepper.actuatorTorques()[a]) << ','
-        << (stepper.actuatorsSaturated()[a] ? 1 : 0);
-  }
-  out << '\n';
-}
-
 // stats.csv: a header of the statistics' names, then one row per step (visitStepStats)
 void writeStatsHeader(std::ostream& out, bool timings) {
   const char* separator = "";
@@ -402,26 +380,6 @@ SavedState readSavedStateText(const std::string& text, const std::string& path, 
   return state;
 }
 
-ActuatorTally::ActuatorTally(const Model& model) : rows_(model.actuators.size()) {}
-
-void ActuatorTally::add(const Model& model, const TimeStepper& stepper) {
-  for (std::size_t a = 0; a < rows_.size(); ++a) {
-    ActuatorSummary& row = rows_[a];
-    row.max_abs_torque = std::max(row.max_abs_torque, std::abs(stepper.actuatorTorques()[a]));
-    const double target = stepper.actuatorTargets()[a];
-    if (!std::isnan(target))
-      row.max_tracking_error = std::max(row.max_tracking_error,
-                                        std::abs(stepper.q()[model.actuators[a].q_index] - target));
-    row.saturated_steps += stepper.actuatorsSaturated()[a] ? 1 : 0;
-  }
-}
-
-std::vector<ActuatorSummary> ActuatorTally::summary(const Model& model) const {
-  std::vector<ActuatorSummary> rows = rows_;
-  for (std::size_t a = 0; a < rows.size(); ++a) rows[a].joint = model.actuators[a].joint;
-  return rows;
-}
-
 RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
   settings.scheme.validate();
   const double h = settings.scheme.h;
@@ -628,14 +586,7 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
                  {"ns_per_update",
                   s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0}};
   j["energy"] = {{"initial", s.energy_initial}, {"final", s.energy_final}};
-  if (!s.actuators.empty()) {
-    nlohmann::ordered_json actuators = nlohmann::ordered_json::object();
-    for (const ActuatorSummary& a : s.actuators)
-      actuators[a.joint] = {{"max_abs_torque", a.max_abs_torque},
-                            {"max_tracking_error", a.max_tracking_error},
-                            {"saturated_steps", a.saturated_steps}};
-    j["actuators"] = actuators;
-  }
+  if (!s.actuators.empty()) j["actuators"] = actuatorsJson(s.actuators);
   return j;
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/sweep/actuator_output.hpp"
 #include "apps/sweep/scene_file.hpp"
 #include "integrators/time_stepper.hpp"
 
@@ -62,25 +63,6 @@ class IterationHistogram {
 
  private:
   std::map<int, long> counts_;
-};
-
-// What a run's actuators did, each over the run: the largest torque (force) applied, the
-// largest distance of its joint from its servo's target at a step's end (0: no target), the
-// steps it spent at its torque limit
-struct ActuatorSummary {
-  std::string joint;
-  double max_abs_torque = 0.0, max_tracking_error = 0.0;
-  long saturated_steps = 0;
-};
-
-class ActuatorTally {
- public:
-  explicit ActuatorTally(const Model& model);
-  void add(const Model& model, const TimeStepper& stepper);  // after each step
-  std::vector<ActuatorSummary> summary(const Model& model) const;
-
- private:
-  std::vector<ActuatorSummary> rows_;
 };
 
 struct RunSummary {
