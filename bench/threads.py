@@ -6,6 +6,7 @@ final_state.csv, bit for bit.
 
   /usr/bin/python3 bench/threads.py [--threads 2] [--repeat 1] [--cases funnel_50,...]
       [--funnel-state F50K.csv] [--powder-state SETTLED.csv] [--wide-state SETTLED_X10.csv]
+      [--pile-state PILE_X12.csv]
 
 The cases that start from a saved state need it (docs/benchmarks.md, "Threads", gives the
 commands that make them); the others run as they are. On a machine with more cores, pass
@@ -23,6 +24,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FUNNEL = os.path.join(ROOT, "examples", "funnel", "funnel.yaml")
 POWDER = os.path.join(ROOT, "examples", "powder_bed", "powder_bed.yaml")
 FAST = os.path.join(ROOT, "examples", "powder_bed", "fast.yaml")
+REDUCED = os.path.join(ROOT, "examples", "powder_bed", "powder_bed_reduced.yaml")
+# the reduced bed's heap twelve times across: 9 600 spheres, about 8 500 contacts when settling
+PILE_X12 = ["--set", "generators[0].copies_across=12"]
 # the pile at 0.06 s holds a few overlaps deeper than a restart accepts (a step at the cap):
 # the check is switched off, the state taken as it is
 FUNNEL_50K = ["--set", "generators[0].count=50000", "--set", "generators[0].orifice=0.0803",
@@ -42,6 +46,11 @@ def cases(args):
     if args.powder_state:
         out["powder pass moreau-jean"] = [POWDER, "--initial-state", args.powder_state,
                                           "--set-file", FAST]
+    if args.pile_state:
+        for scheme in ("moreau-jean", "catching-up"):
+            out[f"pile_9600 {scheme}"] = [
+                REDUCED, "--scheme", scheme, *PILE_X12, "--initial-state", args.pile_state,
+                "--t-end", "0.0122", "--set", "scheme.coulomb.tolerance=1e-6"]
     if args.wide_state:
         out["wide bed moreau-jean"] = [POWDER, "--initial-state", args.wide_state,
                                        "--set-file", FAST,
@@ -72,6 +81,7 @@ def main():
     parser.add_argument("--funnel-t-end", type=float, default=0.065)
     parser.add_argument("--powder-state")
     parser.add_argument("--wide-state")
+    parser.add_argument("--pile-state")
     args = parser.parse_args()
     chosen = cases(args)
     if args.cases:

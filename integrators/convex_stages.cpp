@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "framework/parallel.hpp"
 #include "integrators/projected_newton.hpp"
 #include "integrators/rows.hpp"
+#include "integrators/sweeps.hpp"
 
 namespace sweep {
 
@@ -53,31 +55,72 @@ void appendColumn(const ContactProblem& p, int c, const Vector3& dP, const Vecto
   K.endColumn();
 }
 
+// How a product visits the rows. M^-1 H x adds each row's image into velocities that rows
+// share: from parallel_rows rows on it goes by the coloured sweeps' chunks
+// (integrators/sweeps.hpp), colour after colour, so that each velocity sums its rows in an order
+// the colouring fixes, whatever the thread count. H^T v writes each row's own variables: any split.
+class RowSchedule {
+ public:
+  RowSchedule(const ContactProblem& p, const SolverSettings& settings, SolverWorkspace& ws)
+      : ws_(ws), rows_(p.size()), threads_(settings.threads) {
+    const std::size_t n = p.size();
+    coloured_ = rows_ >= settings.parallel_rows && p.row_components.size() == n &&
+                ws.row_colour.size() >= n && ws.order.size() >= n;
+    if (!coloured_) return;
+    for (int c = 0; c < rows_; ++c) ws.order[c] = c;
+    colourIsland(p, ws, rows_);
+  }
+  template <class Visit>
+  void scatter(Visit&& visit) const {
+    if (!coloured_) {
+      for (int c = 0; c < rows_; ++c) visit(c);
+      return;
+    }
+    forEachColourChunk(ws_, threads_, [&](int chunk) {
+      for (int k = ws_.chunk_begin[chunk]; k < ws_.chunk_begin[chunk + 1]; ++k) visit(ws_.order[k]);
+    });
+  }
+  template <class Visit>
+  void gather(Visit&& visit) const {
+    forEachIndex(rows_, threads_, visit);
+  }
+  int threads() const { return threads_; }
+
+ private:
+  const SolverWorkspace& ws_;
+  int rows_, threads_;
+  bool coloured_ = false;
+};
+
 // Normal rows only: variable normal_var[c] (-1: none) is s_c lambda_c; the gradient is
 // (U_N(v) - target_c) / s_c.
 class NormalRows final : public QpOperator {
  public:
-  NormalRows(const ContactProblem& p, const SolverWorkspace::Convex& ws)
-      : p_(p), ws_(ws), rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
+  NormalRows(const ContactProblem& p, const SolverWorkspace::Convex& ws,
+             const RowSchedule& schedule)
+      : p_(p),
+        ws_(ws),
+        schedule_(schedule),
+        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
-    clearVelocities(&ws_.dofs, z);
-    for (int c = 0; c < p_.size(); ++c) {
+    clearVelocities(&ws_.dofs, z, schedule_.threads());
+    schedule_.scatter([&](int c) {
       const int k = ws_.normal_var[c];
-      if (k < 0 || x[k] == 0.0) continue;
+      if (k < 0 || x[k] == 0.0) return;
       const double impulse = x[k] * ws_.normal_scale[c];
       rows_.visit(
           c, [&](const auto& row) { row.apply(Vector3(impulse, 0.0, 0.0), Vector2::Zero(), z); });
-    }
+    });
   }
   void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
-    for (int c = 0; c < p_.size(); ++c) {
+    schedule_.gather([&](int c) {
       const int k = ws_.normal_var[c];
-      if (k < 0) continue;
+      if (k < 0) return;
       rows_.visit(c, [&](const auto& row) {
         y[k] = ws_.normal_scale[c] *
                (affine ? row.normalVelocity(v) - ws_.target[c] : row.normalVelocityChange(v));
       });
-    }
+    });
   }
   const std::vector<int>* dofs() const override { return &ws_.dofs; }
   bool columns(SparseColumns& J, SparseColumns& K) const override {
@@ -90,6 +133,7 @@ class NormalRows final : public QpOperator {
  private:
   const ContactProblem& p_;
   const SolverWorkspace::Convex& ws_;
+  const RowSchedule& schedule_;
   RowReader rows_;
 };
 
@@ -98,17 +142,18 @@ class NormalRows final : public QpOperator {
 class FrictionRows final : public QpOperator {
  public:
   FrictionRows(const ContactProblem& p, const FrictionStageOptions& options,
-               const SolverWorkspace& nlgs)
+               const SolverWorkspace& nlgs, const RowSchedule& schedule)
       : p_(p),
         options_(options),
         nlgs_(nlgs),
         ws_(nlgs.convex),
+        schedule_(schedule),
         dT_(p.dimension - 1),
         rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
 
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
-    clearVelocities(&ws_.dofs, z);
-    for (int c = 0; c < p_.size(); ++c) {
+    clearVelocities(&ws_.dofs, z, schedule_.threads());
+    schedule_.scatter([&](int c) {
       Vector3 dP = Vector3::Zero();
       if (ws_.normal_var[c] >= 0) dP.x() = x[ws_.normal_var[c]] * ws_.normal_scale[c];
       const int t = ws_.tangent_var[c];
@@ -124,15 +169,15 @@ class FrictionRows final : public QpOperator {
         const double scale = ws_.rolling_scale[c];
         dR = Vector2(x[r] * scale, dT_ == 2 ? x[r + 1] * scale : 0.0);
       }
-      if (dP.isZero(0.0) && dR.isZero(0.0)) continue;
+      if (dP.isZero(0.0) && dR.isZero(0.0)) return;
       rows_.visit(c, [&](const auto& row) { row.apply(dP, dR, z); });
-    }
+    });
   }
 
   void toGradient(const VectorX& v, bool affine, std::vector<double>& y) const override {
-    for (int c = 0; c < p_.size(); ++c) {
+    schedule_.gather([&](int c) {
       const int n = ws_.normal_var[c], t = ws_.tangent_var[c], r = ws_.rolling_var[c];
-      if (n < 0 && t < 0 && r < 0) continue;
+      if (n < 0 && t < 0 && r < 0) return;
       Vector3 u;
       Vector2 u_rolling = Vector2::Zero();
       rows_.visit(c, [&](const auto& row) {
@@ -154,7 +199,7 @@ class FrictionRows final : public QpOperator {
         y[r] = ws_.rolling_scale[c] * u_rolling.x();
         if (dT_ == 2) y[r + 1] = ws_.rolling_scale[c] * u_rolling.y();
       }
-    }
+    });
   }
   const std::vector<int>* dofs() const override { return &ws_.dofs; }
   // in the variables' order: per row its normal correction, tangents, rolling rows
@@ -181,6 +226,7 @@ class FrictionRows final : public QpOperator {
   const FrictionStageOptions& options_;
   const SolverWorkspace& nlgs_;
   const SolverWorkspace::Convex& ws_;
+  const RowSchedule& schedule_;
   int dT_;
   RowReader rows_;
 };
@@ -254,7 +300,8 @@ SolverStats solveNormalStageConvex(const ContactProblem& p, const SolverSettings
     ws.target[c] = -p.normal_bias[c];
     ws.x.push_back(s * lambda_N[c]);
   }
-  const NormalRows op(p, ws);
+  const RowSchedule schedule(p, settings, nlgs);
+  const NormalRows op(p, ws, schedule);
   const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_normal, v);
   for (int c = 0; c < n; ++c)
     if (ws.normal_var[c] >= 0) lambda_N[c] = ws.x[ws.normal_var[c]] * ws.normal_scale[c];
@@ -285,7 +332,8 @@ long projectOnClosedNormalsByCg(const ContactProblem& p, const SolverSettings& s
   }
   if (ws.v_normal.size() != v.size()) ws.v_normal.resize(v.size());
   ws.v_normal.setZero();
-  const NormalRows op(p, ws);
+  const RowSchedule schedule(p, settings, nlgs);
+  const NormalRows op(p, ws, schedule);
   const MprgpStats projection =
       solveProgram(p, op, settings, ws, ws.newton_projection, ws.v_normal);
   for (int c = 0; c < n; ++c) {
@@ -397,7 +445,8 @@ SolverStats solveFrictionStageConvex(const ContactProblem& p, const SolverSettin
   if (rule.needsProjection())
     total.updates += projectOnClosedNormalsByCg(p, settings, rule, v, nlgs);
   addFrictionBlocks(p, options, rule, delta, lambda_T, R, nlgs);
-  const FrictionRows op(p, options, nlgs);
+  const RowSchedule schedule(p, settings, nlgs);
+  const FrictionRows op(p, options, nlgs, schedule);
   const MprgpStats solve = solveProgram(p, op, settings, ws, ws.newton_friction, v);
   for (int c = 0; c < n; ++c) {
     delta[c] = ws.normal_var[c] >= 0 ? ws.x[ws.normal_var[c]] * ws.normal_scale[c] : 0.0;

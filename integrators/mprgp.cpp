@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "framework/parallel.hpp"
+
 namespace sweep {
 
 void SeparableSet::clear() {
@@ -27,60 +29,64 @@ int SeparableSet::add(BlockSet block_set, int block_size, double block_radius,
   return begin;
 }
 
-void clearVelocities(const std::vector<int>* dofs, VectorX& z) {
+void clearVelocities(const std::vector<int>* dofs, VectorX& z, int threads) {
   if (dofs == nullptr) {
     z.setZero();
     return;
   }
-  for (int i : *dofs) z[i] = 0.0;
+  forEachIndex(static_cast<int>(dofs->size()), threads, [&](int k) { z[(*dofs)[k]] = 0.0; });
 }
 
 void MprgpWorkspace::prepare(int variables, int velocities) {
   for (std::vector<double>* w : {&g, &p, &Ap, &phi, &beta, &x_half, &g_half, &x_trial, &g_trial})
     w->resize(variables);
+  sums.reserve(static_cast<std::size_t>(variables / kReduceChunk + 1));
   if (z.size() != velocities) {
     z.resize(velocities);
     z_trial.resize(velocities);
   }
 }
 
-BlockSet effectiveSet(const SeparableSet& s, int b) {
-  return s.set[b] == BlockSet::Ball && !(s.radius[b] > 0.0) ? BlockSet::Fixed : s.set[b];
-}
-
-void projectBlock(const SeparableSet& s, int b, double* x) {
-  const int n = s.size[b];
-  switch (effectiveSet(s, b)) {
-    case BlockSet::Fixed:
-      for (int i = 0; i < n; ++i) x[i] = 0.0;
-      return;
-    case BlockSet::Free:
-      return;
-    case BlockSet::NonNegative:
-      x[0] = std::max(x[0], 0.0);
-      return;
-    case BlockSet::Ball: {
-      const double r = s.radius[b];
-      if (n == 1) {
-        x[0] = std::clamp(x[0], -r, r);
-        return;
-      }
-      const double norm2 = x[0] * x[0] + x[1] * x[1];
-      if (norm2 > r * r) {
-        const double shrink = r / std::sqrt(norm2);
-        x[0] *= shrink;
-        x[1] *= shrink;
-      }
-      return;
-    }
-  }
-}
-
-void project(const SeparableSet& s, std::vector<double>& x) {
-  for (int b = 0; b < s.blocks(); ++b) projectBlock(s, b, x.data() + s.first[b]);
+void project(const SeparableSet& s, std::vector<double>& x, int threads) {
+  forEachIndex(s.blocks(), threads, [&](int b) { projectBlock(s, b, x.data() + s.first[b]); });
 }
 
 namespace {
+
+// The solvers' loops: items on threads from kParallelItems on, sums in fixed chunks.
+struct Loops {
+  int threads;
+  std::vector<ChunkSums>& parts;
+
+  template <class Body>
+  void each(int n, Body&& body) const {
+    forEachIndex(n, threads, body);
+  }
+  // add(i, sums) over [0, n), the sums starting from zero
+  template <class Add>
+  ChunkSums sum(int n, Add&& add) const {
+    return reduceInChunks(
+        static_cast<long>(n), threads, ChunkSums{}, parts,
+        [&](long i, ChunkSums& part) { add(static_cast<int>(i), part); },
+        [](ChunkSums& total, const ChunkSums& part) {
+          for (int k = 0; k < 4; ++k) total[k] += part[k];
+        });
+  }
+  double dot(const std::vector<double>& a, const std::vector<double>& b) const {
+    return sum(static_cast<int>(a.size()), [&](int i, ChunkSums& s) { s[0] += a[i] * b[i]; })[0];
+  }
+  // v += a z over dofs (all when null)
+  void addScaled(const std::vector<int>* dofs, double a, const VectorX& z, VectorX& v) const {
+    if (dofs == nullptr) {
+      each(static_cast<int>(v.size()), [&](int i) { v[i] += a * z[i]; });
+      return;
+    }
+    each(static_cast<int>(dofs->size()), [&](int k) {
+      const int i = (*dofs)[k];
+      v[i] += a * z[i];
+    });
+  }
+};
 
 // a disc block this close to its radius (relative) is on the boundary: projections put it
 // there only up to round-off
@@ -96,151 +102,147 @@ constexpr double kFlat = 1e-9;
 struct Split {
   double phi2 = 0.0, beta2 = 0.0, residual = 0.0;
 };
-Split split(const SeparableSet& s, const std::vector<double>& xs, const std::vector<double>& gs,
-            std::vector<double>& phis, std::vector<double>& betas) {
-  const double* x = xs.data();
-  const double* g = gs.data();
-  double* phi = phis.data();
-  double* beta = betas.data();
-  double phi2 = 0.0, beta2 = 0.0, f2 = 0.0, scale2 = 0.0;
-  const int blocks = s.blocks();
-  for (int b = 0; b < blocks; ++b) {
-    const int f = s.first[b];
-    const double r = s.radius[b];
-    switch (s.set[b]) {
-      case BlockSet::Fixed:
-        phi[f] = beta[f] = 0.0;
-        if (s.size[b] == 2) phi[f + 1] = beta[f + 1] = 0.0;
-        continue;
-      case BlockSet::Free:
-        phi[f] = g[f];
-        beta[f] = 0.0;
-        phi2 += g[f] * g[f];
-        f2 += g[f] * g[f];
-        scale2 += std::max(x[f] * x[f], g[f] * g[f]) + s.scale2[b];
-        if (s.size[b] == 2) {
-          phi[f + 1] = g[f + 1];
-          beta[f + 1] = 0.0;
-          phi2 += g[f + 1] * g[f + 1];
-          f2 += g[f + 1] * g[f + 1];
-          scale2 += std::max(x[f + 1] * x[f + 1], g[f + 1] * g[f + 1]);
-        }
-        continue;
-      case BlockSet::NonNegative: {
-        const double F = x[f] - std::max(x[f] - g[f], 0.0);
-        f2 += F * F;
-        scale2 += std::max(x[f] * x[f], g[f] * g[f]) + s.scale2[b];
-        if (x[f] > 0.0) {
-          phi[f] = g[f];
-          beta[f] = 0.0;
-          phi2 += g[f] * g[f];
-        } else {
-          phi[f] = 0.0;
-          beta[f] = std::min(g[f], 0.0);
-          beta2 += beta[f] * beta[f];
-        }
-        continue;
-      }
-      case BlockSet::Ball:
-        break;
-    }
-    if (!(r > 0.0)) {  // a ball of radius zero is fixed
+// Block b's part of split(): phi and beta written, |phi|^2, |beta|^2 and the residual's two sums
+// added to sums[0..3].
+void splitBlock(const SeparableSet& s, int b, const double* x, const double* g, double* phi,
+                double* beta, ChunkSums& sums) {
+  double &phi2 = sums[0], &beta2 = sums[1], &f2 = sums[2], &scale2 = sums[3];
+  const int f = s.first[b];
+  const double r = s.radius[b];
+  switch (s.set[b]) {
+    case BlockSet::Fixed:
       phi[f] = beta[f] = 0.0;
       if (s.size[b] == 2) phi[f + 1] = beta[f + 1] = 0.0;
-      continue;
-    }
-    if (s.size[b] == 1) {
-      const double F = x[f] - std::clamp(x[f] - g[f], -r, r);
+      return;
+    case BlockSet::Free:
+      phi[f] = g[f];
+      beta[f] = 0.0;
+      phi2 += g[f] * g[f];
+      f2 += g[f] * g[f];
+      scale2 += std::max(x[f] * x[f], g[f] * g[f]) + s.scale2[b];
+      if (s.size[b] == 2) {
+        phi[f + 1] = g[f + 1];
+        beta[f + 1] = 0.0;
+        phi2 += g[f + 1] * g[f + 1];
+        f2 += g[f + 1] * g[f + 1];
+        scale2 += std::max(x[f + 1] * x[f + 1], g[f + 1] * g[f + 1]);
+      }
+      return;
+    case BlockSet::NonNegative: {
+      const double F = x[f] - std::max(x[f] - g[f], 0.0);
       f2 += F * F;
       scale2 += std::max(x[f] * x[f], g[f] * g[f]) + s.scale2[b];
-      if (std::abs(x[f]) < r) {
+      if (x[f] > 0.0) {
         phi[f] = g[f];
         beta[f] = 0.0;
         phi2 += g[f] * g[f];
       } else {
         phi[f] = 0.0;
-        beta[f] = x[f] > 0.0 ? std::max(g[f], 0.0) : std::min(g[f], 0.0);
+        beta[f] = std::min(g[f], 0.0);
         beta2 += beta[f] * beta[f];
       }
-      continue;
+      return;
     }
-    double y[2] = {x[f] - g[f], x[f + 1] - g[f + 1]};
-    const double y2 = y[0] * y[0] + y[1] * y[1];
-    if (y2 > r * r) {
-      const double shrink = r / std::sqrt(y2);
-      y[0] *= shrink;
-      y[1] *= shrink;
-    }
-    f2 += (x[f] - y[0]) * (x[f] - y[0]) + (x[f + 1] - y[1]) * (x[f + 1] - y[1]);
-    const double norm2 = x[f] * x[f] + x[f + 1] * x[f + 1];
-    scale2 += std::max(norm2, g[f] * g[f] + g[f + 1] * g[f + 1]) + s.scale2[b];
-    if (norm2 < r * r * (1.0 - kOnBoundary)) {
-      phi[f] = g[f];
-      phi[f + 1] = g[f + 1];
-      beta[f] = beta[f + 1] = 0.0;
-      phi2 += g[f] * g[f] + g[f + 1] * g[f + 1];
-      continue;
-    }
-    const double norm = std::sqrt(norm2);
-    const double nx = x[f] / norm, ny = x[f + 1] / norm;
-    const double outward = std::min(g[f] * nx + g[f + 1] * ny, 0.0);
-    phi[f] = phi[f + 1] = 0.0;
-    beta[f] = g[f] - outward * nx;
-    beta[f + 1] = g[f + 1] - outward * ny;
-    beta2 += beta[f] * beta[f] + beta[f + 1] * beta[f + 1];
+    case BlockSet::Ball:
+      break;
   }
+  if (!(r > 0.0)) {  // a ball of radius zero is fixed
+    phi[f] = beta[f] = 0.0;
+    if (s.size[b] == 2) phi[f + 1] = beta[f + 1] = 0.0;
+    return;
+  }
+  if (s.size[b] == 1) {
+    const double F = x[f] - std::clamp(x[f] - g[f], -r, r);
+    f2 += F * F;
+    scale2 += std::max(x[f] * x[f], g[f] * g[f]) + s.scale2[b];
+    if (std::abs(x[f]) < r) {
+      phi[f] = g[f];
+      beta[f] = 0.0;
+      phi2 += g[f] * g[f];
+    } else {
+      phi[f] = 0.0;
+      beta[f] = x[f] > 0.0 ? std::max(g[f], 0.0) : std::min(g[f], 0.0);
+      beta2 += beta[f] * beta[f];
+    }
+    return;
+  }
+  double y[2] = {x[f] - g[f], x[f + 1] - g[f + 1]};
+  const double y2 = y[0] * y[0] + y[1] * y[1];
+  if (y2 > r * r) {
+    const double shrink = r / std::sqrt(y2);
+    y[0] *= shrink;
+    y[1] *= shrink;
+  }
+  f2 += (x[f] - y[0]) * (x[f] - y[0]) + (x[f + 1] - y[1]) * (x[f + 1] - y[1]);
+  const double norm2 = x[f] * x[f] + x[f + 1] * x[f + 1];
+  scale2 += std::max(norm2, g[f] * g[f] + g[f + 1] * g[f + 1]) + s.scale2[b];
+  if (norm2 < r * r * (1.0 - kOnBoundary)) {
+    phi[f] = g[f];
+    phi[f + 1] = g[f + 1];
+    beta[f] = beta[f + 1] = 0.0;
+    phi2 += g[f] * g[f] + g[f + 1] * g[f + 1];
+    return;
+  }
+  const double norm = std::sqrt(norm2);
+  const double nx = x[f] / norm, ny = x[f + 1] / norm;
+  const double outward = std::min(g[f] * nx + g[f + 1] * ny, 0.0);
+  phi[f] = phi[f + 1] = 0.0;
+  beta[f] = g[f] - outward * nx;
+  beta[f + 1] = g[f + 1] - outward * ny;
+  beta2 += beta[f] * beta[f] + beta[f + 1] * beta[f + 1];
+}
+
+Split split(const SeparableSet& s, const std::vector<double>& x, const std::vector<double>& g,
+            std::vector<double>& phi, std::vector<double>& beta, const Loops& loops) {
+  const ChunkSums sums = loops.sum(s.blocks(), [&](int b, ChunkSums& part) {
+    splitBlock(s, b, x.data(), g.data(), phi.data(), beta.data(), part);
+  });
   Split out;
-  out.phi2 = phi2;
-  out.beta2 = beta2;
-  out.residual = scale2 > 0.0 ? std::sqrt(f2 / scale2) : std::sqrt(f2);
+  out.phi2 = sums[0];
+  out.beta2 = sums[1];
+  out.residual = sums[3] > 0.0 ? std::sqrt(sums[2] / sums[3]) : std::sqrt(sums[2]);
   return out;
 }
 
-// the largest alpha >= 0 with x - alpha p in the set
-double maxFeasibleStep(const SeparableSet& s, const std::vector<double>& x,
-                       const std::vector<double>& p) {
-  double alpha = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < s.blocks(); ++b) {
-    const int f = s.first[b];
-    switch (effectiveSet(s, b)) {
-      case BlockSet::Fixed:
-      case BlockSet::Free:
-        break;
-      case BlockSet::NonNegative:
-        if (p[f] > 0.0) alpha = std::min(alpha, std::max(x[f], 0.0) / p[f]);
-        break;
-      case BlockSet::Ball: {
-        const double r = s.radius[b];
-        if (s.size[b] == 1) {
-          if (p[f] > 0.0) alpha = std::min(alpha, std::max(x[f] + r, 0.0) / p[f]);
-          if (p[f] < 0.0) alpha = std::min(alpha, std::min(x[f] - r, 0.0) / p[f]);
-          break;
-        }
-        const double a = p[f] * p[f] + p[f + 1] * p[f + 1];
-        if (!(a > 0.0)) break;
-        const double xp = x[f] * p[f] + x[f + 1] * p[f + 1];
-        const double c = std::min(x[f] * x[f] + x[f + 1] * x[f + 1] - r * r, 0.0);
-        alpha = std::min(alpha, (xp + std::sqrt(xp * xp - a * c)) / a);
-        break;
+// the largest alpha >= 0 with x_b - alpha p_b in block b's set (infinite: no limit)
+double blockStep(const SeparableSet& s, int b, const std::vector<double>& x,
+                 const std::vector<double>& p) {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const int f = s.first[b];
+  switch (effectiveSet(s, b)) {
+    case BlockSet::Fixed:
+    case BlockSet::Free:
+      return kNone;
+    case BlockSet::NonNegative:
+      return p[f] > 0.0 ? std::max(x[f], 0.0) / p[f] : kNone;
+    case BlockSet::Ball: {
+      const double r = s.radius[b];
+      if (s.size[b] == 1) {
+        if (p[f] > 0.0) return std::max(x[f] + r, 0.0) / p[f];
+        if (p[f] < 0.0) return std::min(x[f] - r, 0.0) / p[f];
+        return kNone;
       }
+      const double a = p[f] * p[f] + p[f + 1] * p[f + 1];
+      if (!(a > 0.0)) return kNone;
+      const double xp = x[f] * p[f] + x[f + 1] * p[f + 1];
+      const double c = std::min(x[f] * x[f] + x[f + 1] * x[f + 1] - r * r, 0.0);
+      return (xp + std::sqrt(xp * xp - a * c)) / a;
     }
   }
-  return alpha;
+  return kNone;
 }
 
-double dot(const std::vector<double>& a, const std::vector<double>& b) {
-  double sum = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
-  return sum;
-}
-
-// v += a z over dofs (all when null)
-void addScaled(const std::vector<int>* dofs, double a, const VectorX& z, VectorX& v) {
-  if (dofs == nullptr) {
-    v += a * z;
-    return;
-  }
-  for (int i : *dofs) v[i] += a * z[i];
+// the largest alpha >= 0 with x - alpha p in the set: a minimum, exact in any order
+double maxFeasibleStep(const SeparableSet& s, const std::vector<double>& x,
+                       const std::vector<double>& p, const Loops& loops) {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const ChunkSums least = reduceInChunks(
+      static_cast<long>(s.blocks()), loops.threads, ChunkSums{kNone, 0.0, 0.0, 0.0}, loops.parts,
+      [&](long b, ChunkSums& part) {
+        part[0] = std::min(part[0], blockStep(s, static_cast<int>(b), x, p));
+      },
+      [](ChunkSums& total, const ChunkSums& part) { total[0] = std::min(total[0], part[0]); });
+  return least[0];
 }
 
 bool anyNonZero(const std::vector<double>& x) {
@@ -274,17 +276,25 @@ double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
   return scale2 > 0.0 ? std::sqrt(f2 / scale2) : std::sqrt(f2);
 }
 
+double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
+                       const std::vector<double>& g, int threads, std::vector<ChunkSums>& parts) {
+  const Loops loops{threads, parts};
+  const ChunkSums sums = loops.sum(
+      s.blocks(), [&](int b, ChunkSums& part) { addResidualTerms(s, b, x, g, part[0], part[1]); });
+  return sums[1] > 0.0 ? std::sqrt(sums[0] / sums[1]) : std::sqrt(sums[0]);
+}
+
 namespace {
 // Both solvers' start: the workspace sized, the warm start x projected onto the set and
 // applied to v, and the gradient at it in ws.g (one product).
 void start(const QpOperator& op, const SeparableSet& set, std::vector<double>& x, VectorX& v,
-           MprgpWorkspace& ws, MprgpStats& stats) {
+           MprgpWorkspace& ws, const Loops& loops, MprgpStats& stats) {
   x.resize(set.variables);
   ws.prepare(set.variables, static_cast<int>(v.size()));
-  project(set, x);
+  project(set, x, loops.threads);
   if (anyNonZero(x)) {
     op.toVelocity(x, ws.z);
-    addScaled(op.dofs(), 1.0, ws.z, v);
+    loops.addScaled(op.dofs(), 1.0, ws.z, v);
   }
   op.toGradient(v, true, ws.g);
   stats.products = 1;
@@ -295,9 +305,10 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
                       std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
   MprgpStats stats;
   const int n = set.variables;
-  start(op, set, x, v, ws, stats);
+  const Loops loops{settings.threads, ws.sums};
+  start(op, set, x, v, ws, loops, stats);
   std::vector<double>&g = ws.g, &p = ws.p, &Ap = ws.Ap, &phi = ws.phi, &beta = ws.beta;
-  Split at = split(set, x, g, phi, beta);  // at x
+  Split at = split(set, x, g, phi, beta, loops);  // at x
   p = phi;
   double rayleigh = 1.0;  // largest p^T A p / p^T p seen (the scaled diagonal is about 1)
   double alpha_bar = 1.9 / rayleigh;
@@ -310,26 +321,26 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
   auto projectedStep = [&](const std::vector<double>& from, const std::vector<double>& g_from,
                            const std::vector<double>& direction, double step, bool expansion) {
     for (int attempt = 0;; ++attempt) {
-      for (int i = 0; i < n; ++i) ws.x_trial[i] = from[i] - step * direction[i];
-      project(set, ws.x_trial);
+      loops.each(n, [&](int i) { ws.x_trial[i] = from[i] - step * direction[i]; });
+      project(set, ws.x_trial, loops.threads);
       // dx, in x_trial's slot until x_trial is rebuilt as from + dx
-      for (int i = 0; i < n; ++i) ws.x_trial[i] -= from[i];
+      loops.each(n, [&](int i) { ws.x_trial[i] -= from[i]; });
       op.toVelocity(ws.x_trial, ws.z_trial);
       op.toGradient(ws.z_trial, false, ws.g_trial);
       ++stats.products;
-      double linear = 0.0, curvature = 0.0;
-      for (int i = 0; i < n; ++i) {
-        linear += g_from[i] * ws.x_trial[i];
-        curvature += ws.x_trial[i] * ws.g_trial[i];
-      }
+      const ChunkSums change = loops.sum(n, [&](int i, ChunkSums& part) {
+        part[0] += g_from[i] * ws.x_trial[i];
+        part[1] += ws.x_trial[i] * ws.g_trial[i];
+      });
+      const double linear = change[0], curvature = change[1];
       if (linear + 0.5 * curvature <= 0.0 || attempt >= 60) {
-        for (int i = 0; i < n; ++i) {
+        loops.each(n, [&](int i) {
           ws.x_trial[i] += from[i];
           ws.g_trial[i] += g_from[i];
-        }
+        });
         x.swap(ws.x_trial);
         g.swap(ws.g_trial);
-        addScaled(op.dofs(), 1.0, ws.z_trial, v);
+        loops.addScaled(op.dofs(), 1.0, ws.z_trial, v);
         return;
       }
       step *= 0.5;
@@ -353,7 +364,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       op.toVelocity(p, ws.z);
       op.toGradient(ws.z, false, Ap);
       ++stats.products;
-      const double pAp = dot(p, Ap), pp = dot(p, p);
+      const double pAp = loops.dot(p, Ap), pp = loops.dot(p, p);
       if (pp > 0.0 && pAp > 0.0 && pAp > rayleigh * pp) {
         rayleigh = pAp / pp;
         alpha_bar = std::min(alpha_bar, 1.9 / rayleigh);
@@ -368,30 +379,31 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       // program has no solution. The solve goes on with bounded steps (as Gauss-Seidel's
       // sweeps do) and is reported unconverged, whatever its relative residual, which a
       // growing impulse drives down.
-      if (flat && std::abs(dot(g, p)) > 1e-6 * std::sqrt(dot(g, g) * pp)) stats.inconsistent = true;
-      const double feasible = flat ? 0.0 : maxFeasibleStep(set, x, p);
-      const double cg = flat ? std::numeric_limits<double>::infinity() : dot(g, p) / pAp;
+      if (flat && std::abs(loops.dot(g, p)) > 1e-6 * std::sqrt(loops.dot(g, g) * pp))
+        stats.inconsistent = true;
+      const double feasible = flat ? 0.0 : maxFeasibleStep(set, x, p, loops);
+      const double cg = flat ? std::numeric_limits<double>::infinity() : loops.dot(g, p) / pAp;
       if (cg <= feasible) {
-        for (int i = 0; i < n; ++i) {
+        loops.each(n, [&](int i) {
           x[i] -= cg * p[i];
           g[i] -= cg * Ap[i];
-        }
-        addScaled(op.dofs(), -cg, ws.z, v);
-        at = split(set, x, g, phi, beta);
-        const double conjugate = dot(phi, Ap) / pAp;
-        for (int i = 0; i < n; ++i) p[i] = phi[i] - conjugate * p[i];
+        });
+        loops.addScaled(op.dofs(), -cg, ws.z, v);
+        at = split(set, x, g, phi, beta, loops);
+        const double conjugate = loops.dot(phi, Ap) / pAp;
+        loops.each(n, [&](int i) { p[i] = phi[i] - conjugate * p[i]; });
         ++stats.cg_steps;
         continue;
       }
       // expansion: the largest feasible step, then a projected free-gradient step
       const double step = std::isfinite(feasible) ? feasible : 0.0;
-      for (int i = 0; i < n; ++i) {
+      loops.each(n, [&](int i) {
         ws.x_half[i] = x[i] - step * p[i];
         ws.g_half[i] = g[i] - step * Ap[i];
-      }
-      project(set, ws.x_half);
-      addScaled(op.dofs(), -step, ws.z, v);
-      split(set, ws.x_half, ws.g_half, phi, beta);
+      });
+      project(set, ws.x_half, loops.threads);
+      loops.addScaled(op.dofs(), -step, ws.z, v);
+      split(set, ws.x_half, ws.g_half, phi, beta, loops);
       projectedStep(ws.x_half, ws.g_half, phi, alpha_bar, true);
       ++stats.expansions;
     } else {
@@ -399,14 +411,14 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       op.toVelocity(beta, ws.z);
       op.toGradient(ws.z, false, Ap);
       ++stats.products;
-      const double bAb = dot(beta, Ap);
-      const double step = bAb > kFlat * rayleigh * at.beta2 ? dot(g, beta) / bAb : alpha_bar;
+      const double bAb = loops.dot(beta, Ap);
+      const double step = bAb > kFlat * rayleigh * at.beta2 ? loops.dot(g, beta) / bAb : alpha_bar;
       ws.x_half = x;
       ws.g_half = g;
       projectedStep(ws.x_half, ws.g_half, beta, step, false);
       ++stats.proportionings;
     }
-    at = split(set, x, g, phi, beta);
+    at = split(set, x, g, phi, beta, loops);
     p = phi;
   }
   return stats;
@@ -416,7 +428,8 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
                      std::vector<double>& x, VectorX& v, MprgpWorkspace& ws) {
   MprgpStats stats;
   const int n = set.variables;
-  start(op, set, x, v, ws, stats);
+  const Loops loops{settings.threads, ws.sums};
+  start(op, set, x, v, ws, loops, stats);
   // x, g, v: the iterate; y (x_half), g_y (g_half), v_y (z_trial): the extrapolated point
   std::vector<double>&g = ws.g, &y = ws.x_half, &g_y = ws.g_half, &d = ws.p, &Ad = ws.Ap;
   VectorX& v_y = ws.z_trial;
@@ -426,7 +439,7 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
   double L = 1.0;  // Lipschitz constant of the gradient: about 1 for a unit diagonal
   double t = 1.0;
   for (int it = 0;; ++it) {
-    stats.residual = naturalResidual(set, x, g);
+    stats.residual = naturalResidual(set, x, g, loops.threads, ws.sums);
     if (stats.residual < settings.tolerance && (it > 0 || stats.residual == 0.0)) {  // as MPRGP
       stats.converged = true;
       break;
@@ -436,31 +449,35 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
     // d = P(y - g_y / L) - y, with L raised until the quadratic model majorizes f
     double dAd = 0.0, dd = 0.0;
     for (int attempt = 0;; ++attempt) {
-      for (int i = 0; i < n; ++i) d[i] = y[i] - g_y[i] / L;
-      project(set, d);
-      for (int i = 0; i < n; ++i) d[i] -= y[i];
+      loops.each(n, [&](int i) { d[i] = y[i] - g_y[i] / L; });
+      project(set, d, loops.threads);
+      loops.each(n, [&](int i) { d[i] -= y[i]; });
       op.toVelocity(d, ws.z);
       op.toGradient(ws.z, false, Ad);
       ++stats.products;
-      dAd = dot(d, Ad);
-      dd = dot(d, d);
+      const ChunkSums curvature = loops.sum(n, [&](int i, ChunkSums& part) {
+        part[0] += d[i] * Ad[i];
+        part[1] += d[i] * d[i];
+      });
+      dAd = curvature[0];
+      dd = curvature[1];
       if (dAd <= L * dd * (1.0 + 1e-12) || attempt >= 60) break;
       L = std::max(2.0 * L, dAd / dd);
     }
     // x_new = y + d; restart the momentum when it points uphill (O'Donoghue & Candes 2015)
-    double uphill = 0.0;
-    for (int i = 0; i < n; ++i) uphill += g_y[i] * (y[i] + d[i] - x[i]);
+    const double uphill =
+        loops.sum(n, [&](int i, ChunkSums& part) { part[0] += g_y[i] * (y[i] + d[i] - x[i]); })[0];
     const bool restart = uphill > 0.0;
     const double t_next = restart ? 1.0 : 0.5 * (1.0 + std::sqrt(1.0 + 4.0 * t * t));
     const double momentum = restart ? 0.0 : (t - 1.0) / t_next;
     t = t_next;
-    for (int i = 0; i < n; ++i) {
+    loops.each(n, [&](int i) {
       const double x_new = y[i] + d[i], g_new = g_y[i] + Ad[i];
       y[i] = x_new + momentum * (x_new - x[i]);
       g_y[i] = g_new + momentum * (g_new - g[i]);
       x[i] = x_new;
       g[i] = g_new;
-    }
+    });
     // v_y + z is v at y + d = x_new; then v_y = v_new + momentum (v_new - v) and v = v_new
     const auto extrapolate = [&](int i) {
       const double v_new = v_y[i] + ws.z[i];
@@ -468,9 +485,9 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
       v[i] = v_new;
     };
     if (const std::vector<int>* dofs = op.dofs()) {
-      for (int i : *dofs) extrapolate(i);
+      loops.each(static_cast<int>(dofs->size()), [&](int k) { extrapolate((*dofs)[k]); });
     } else {
-      for (Eigen::Index i = 0; i < v.size(); ++i) extrapolate(static_cast<int>(i));
+      loops.each(static_cast<int>(v.size()), extrapolate);
     }
     L *= 0.9;  // let the step grow back where the operator is milder
     ++stats.cg_steps;

@@ -30,6 +30,12 @@
 // sqrt(sum_b max(|x_b|^2, |g_b|^2) + scale2_b), below the tolerance: in variables scaled to a
 // unit diagonal this is Gauss-Seidel's residual (docs/schemes.md, "Convex stage solvers").
 // No allocation in the iterations: the workspace is sized by the caller's first call per solve.
+// Threads: every loop over variables, blocks or velocities splits from kParallelItems items on
+// (framework/parallel.hpp); its sums are taken in fixed chunks, so that every thread count gives
+// the same bits, and those of a plain loop up to kReduceChunk items.
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -57,11 +63,44 @@ struct SeparableSet {
   int blocks() const { return static_cast<int>(set.size()); }
 };
 
-// A ball of radius 0 is the point {0}: Fixed.
-BlockSet effectiveSet(const SeparableSet& set, int block);
-// the Euclidean projection of block b (x: its first variable), and of every block
-void projectBlock(const SeparableSet& set, int block, double* x);
-void project(const SeparableSet& set, std::vector<double>& x);
+// A ball of radius 0 is the point {0}: Fixed. Inline, with projectBlock: the solvers call them
+// per block in every iteration.
+inline BlockSet effectiveSet(const SeparableSet& s, int b) {
+  return s.set[b] == BlockSet::Ball && !(s.radius[b] > 0.0) ? BlockSet::Fixed : s.set[b];
+}
+inline void projectBlock(const SeparableSet& s, int b, double* x) {
+  const int n = s.size[b];
+  switch (effectiveSet(s, b)) {
+    case BlockSet::Fixed:
+      for (int i = 0; i < n; ++i) x[i] = 0.0;
+      return;
+    case BlockSet::Free:
+      return;
+    case BlockSet::NonNegative:
+      x[0] = std::max(x[0], 0.0);
+      return;
+    case BlockSet::Ball: {
+      const double r = s.radius[b];
+      if (n == 1) {
+        x[0] = std::clamp(x[0], -r, r);
+        return;
+      }
+      const double norm2 = x[0] * x[0] + x[1] * x[1];
+      if (norm2 > r * r) {
+        const double shrink = r / std::sqrt(norm2);
+        x[0] *= shrink;
+        x[1] *= shrink;
+      }
+      return;
+    }
+  }
+}
+
+// the Euclidean projection of every block
+void project(const SeparableSet& set, std::vector<double>& x, int threads = 1);
+
+// up to four sums taken together over fixed chunks (framework/parallel.hpp, reduceInChunks)
+using ChunkSums = std::array<double, 4>;
 
 // Sparse columns (compressed sparse column form), the variables' images over the velocities.
 struct SparseColumns {
@@ -99,7 +138,7 @@ class QpOperator {
 };
 
 // z = 0 over dofs (all of z when null)
-void clearVelocities(const std::vector<int>* dofs, VectorX& z);
+void clearVelocities(const std::vector<int>* dofs, VectorX& z, int threads = 1);
 
 struct MprgpSettings {
   int max_iterations = 1500;
@@ -121,6 +160,7 @@ struct MprgpStats {
 struct MprgpWorkspace {
   std::vector<double> g, p, Ap, phi, beta, x_half, g_half, x_trial, g_trial;
   VectorX z, z_trial;
+  std::vector<ChunkSums> sums;  // the chunked sums' parts
   void prepare(int variables, int velocities);
 };
 
@@ -143,9 +183,11 @@ MprgpStats solveSeparableQp(const QpOperator& op, const SeparableSet& set,
                             const MprgpSettings& settings, std::vector<double>& x, VectorX& v,
                             MprgpWorkspace& ws);
 
-// The natural-map residual above at (x, g).
+// The natural-map residual above at (x, g); on threads, its sums' parts kept in `parts`.
 double naturalResidual(const SeparableSet& set, const std::vector<double>& x,
                        const std::vector<double>& g);
+double naturalResidual(const SeparableSet& set, const std::vector<double>& x,
+                       const std::vector<double>& g, int threads, std::vector<ChunkSums>& parts);
 // Block b's terms of it: |x_b - P_b(x_b - g_b)|^2 added to f2, its scale to scale2 (nothing
 // for a fixed block); the residual is sqrt(f2 / scale2), or sqrt(f2) where scale2 is 0.
 void addResidualTerms(const SeparableSet& set, int b, const std::vector<double>& x,

@@ -88,30 +88,6 @@ void markBinding(const SeparableSet& set, const std::vector<double>& x,
   });
 }
 
-// x projected onto the set, block by block
-void projectOnThreads(const SeparableSet& set, std::vector<double>& x, int threads) {
-  forEachIndex(set.blocks(), threads,
-               [&](long b) { projectBlock(set, static_cast<int>(b), x.data() + set.first[b]); });
-}
-
-// mprgp.hpp's naturalResidual, its two sums in fixed chunks of blocks: a plain loop's bits up
-// to kReduceChunk blocks, the same bits for every thread count above
-double naturalResidualOnThreads(const SeparableSet& set, const std::vector<double>& x,
-                                const std::vector<double>& g, ProjectedNewtonWorkspace& ws,
-                                int threads) {
-  using Sums = std::pair<double, double>;  // |x - P(x - g)|^2, the scale
-  const Sums sums = reduceInChunks(
-      set.blocks(), threads, Sums{0.0, 0.0}, ws.residual_parts,
-      [&](long b, Sums& part) {
-        addResidualTerms(set, static_cast<int>(b), x, g, part.first, part.second);
-      },
-      [](Sums& total, const Sums& part) {
-        total.first += part.first;
-        total.second += part.second;
-      });
-  return sums.second > 0.0 ? std::sqrt(sums.first / sums.second) : std::sqrt(sums.first);
-}
-
 // the bounds of variable i's box (+-inf where open)
 void boundsOf(const SeparableSet& set, int b, double& low, double& high) {
   constexpr double inf = std::numeric_limits<double>::infinity();
@@ -350,7 +326,7 @@ class NewtonSolve {
     return true;
   }
   void keepIfBest(const std::vector<double>& xp, const std::vector<double>& gp) {
-    const double residual = naturalResidualOnThreads(set_, xp, gp, ws_, threads_);
+    const double residual = naturalResidual(set_, xp, gp, threads_, ws_.residual_parts);
     if (residual < best_) {
       best_ = residual;
       copy(xp, ws_.x_best);
@@ -373,7 +349,7 @@ class NewtonSolve {
   }
   // the projection of x_trial, its gradient, and the best point kept
   void keepProjectedTrial() {
-    projectOnThreads(set_, ws_.x_trial, threads_);
+    project(set_, ws_.x_trial, threads_);
     delassusGradient(ws_, ws_.x_trial, ws_.g_trial, threads_);
     keepIfBest(ws_.x_trial, ws_.g_trial);
   }
@@ -447,7 +423,7 @@ class NewtonSolve {
   bool projectedStep() {
     std::vector<double>& x = x_;
     each([&](long i) { ws_.x_trial[i] = x[i] - ws_.g[i]; });
-    projectOnThreads(set_, ws_.x_trial, threads_);
+    project(set_, ws_.x_trial, threads_);
     const double w2 = sum(
         [&](long i, double& part) { part += (x[i] - ws_.x_trial[i]) * (x[i] - ws_.x_trial[i]); });
     markBinding(set_, x, ws_.g, std::min(kBindingMargin, std::sqrt(w2)), ws_.binding, threads_);
@@ -459,7 +435,7 @@ class NewtonSolve {
     double alpha = 1.0;
     for (int halving = 0; halving <= kMaxHalvings; ++halving, alpha *= 0.5) {
       each([&](long i) { ws_.x_trial[i] = x[i] + alpha * ws_.d[i]; });
-      projectOnThreads(set_, ws_.x_trial, threads_);
+      project(set_, ws_.x_trial, threads_);
       const double slope =
           sum([&](long i, double& part) { part += ws_.g[i] * (ws_.x_trial[i] - x[i]); });
       delassusGradient(ws_, ws_.x_trial, ws_.g_trial, threads_);

@@ -72,7 +72,7 @@ struct ProjectedNewtonWorkspace {
   std::vector<int> full_begin, full_column;
   std::vector<double> full_value;
   std::vector<double> sum_parts;  // the chunked sums' parts (framework/parallel.hpp)
-  std::vector<std::pair<double, double>> residual_parts;
+  std::vector<ChunkSums> residual_parts;
   std::vector<double> accumulator;
   std::vector<int> marker, touched;
   std::vector<double> b, g, d, x_trial, g_trial;

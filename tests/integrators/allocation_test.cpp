@@ -2,6 +2,8 @@
 // a solve runs. Stronger than Eigen's malloc check, which sees Eigen's own allocations only.
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -116,13 +118,20 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
     const ContactProblem& problem = pile.step.problem;
     const int n = problem.size();
     ASSERT_GT(n, 50);
-    for (StageSolver solver :
-         {StageSolver::Mprgp, StageSolver::Newton, StageSolver::InteriorPoint}) {
+    // the last: MPRGP / APGD with their products by the coloured chunks, on two threads
+    for (int configuration = 0; configuration < 4; ++configuration) {
+      const StageSolver solver =
+          std::array{StageSolver::Mprgp, StageSolver::Newton, StageSolver::InteriorPoint,
+                     StageSolver::Mprgp}[configuration];
       SolverWorkspace ws;
       ws.prepare(n, pile.scene.model.nv);
       SolverSettings settings;
       settings.solver = solver;
       settings.max_iterations = 200;
+      if (configuration == 3) {
+        settings.parallel_rows = 16;
+        settings.threads = 2;
+      }
       FrictionStageOptions options;
       for (int round = 0; round < 2; ++round) {
         std::vector<double> lambda_N(n, 0.0), delta(n, 0.0);
@@ -134,7 +143,8 @@ TEST(NoAllocation, ConvexStagesOnTheirSecondSolve) {
           solveFrictionStage(problem, settings, options, lambda_N, delta, lambda_T, v, ws);
         }
         if (round == 1) {
-          EXPECT_EQ(allocations, 0) << (planar ? "2D " : "3D ") << enumName(solver) << " stages";
+          EXPECT_EQ(allocations, 0) << (planar ? "2D " : "3D ") << enumName(solver) << " stages"
+                                    << (configuration == 3 ? ", coloured on two threads" : "");
         }
       }
     }
@@ -166,6 +176,36 @@ TEST(NoAllocation, ThreadedNewtonSolveOnItsSecondCall) {
     ASSERT_EQ(ws.factorThreads(), 2) << "the factorization must be split for this test";
     if (round == 1) {
       EXPECT_EQ(allocations, 0) << "threaded Newton solve";
+    }
+  }
+}
+
+// MPRGP on the orthant and APGD on discs on two threads (a 8 580-variable program: its loops
+// and chunked sums on threads): a second solve allocates nothing.
+TEST(NoAllocation, ThreadedMprgpAndApgdOnTheirSecondCall) {
+  std::mt19937 rng(5);
+  const test::NetworkProgram program = test::gridProgram(66, rng);
+  for (bool discs : {false, true}) {
+    SeparableSet set;
+    for (int j = 0; j < program.variables(); j += discs ? 2 : 1)
+      set.add(discs ? BlockSet::Ball : BlockSet::NonNegative, discs ? 2 : 1, 1.0);
+    MprgpSettings settings;
+    settings.threads = 2;
+    settings.max_iterations = 100;
+    MprgpWorkspace ws;
+    for (int round = 0; round < 2; ++round) {
+      std::vector<double> x(program.variables(), 0.0);
+      VectorX v = VectorX::Zero(program.velocities());
+      {
+        Counted counted;
+        if (discs)
+          solveApgd(program, set, settings, x, v, ws);
+        else
+          solveMprgp(program, set, settings, x, v, ws);
+      }
+      if (round == 1) {
+        EXPECT_EQ(allocations, 0) << (discs ? "APGD" : "MPRGP") << " on two threads";
+      }
     }
   }
 }

@@ -11,6 +11,7 @@
 #include <random>
 #include <thread>
 
+#include "framework/parallel.hpp"
 #include "integrators/mprgp.hpp"
 #include "integrators/projected_newton.hpp"
 #include "solver_fixtures.hpp"
@@ -396,6 +397,43 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
   }
 }
 
+// MPRGP on the orthant and APGD on discs, on a program of 16 020 variables: their loops and
+// sums go on threads, the sums in fixed chunks, so 1, 2, 3 and 4 threads give the same iterates
+// and answer, bit for bit.
+TEST(Mprgp, ThreadsGiveTheSameBits) {
+  std::mt19937 rng(5);
+  const test::NetworkProgram program = test::gridProgram(66, rng);
+  ASSERT_GT(program.variables(), kParallelItems);  // on threads, in more than one chunk
+  for (bool discs : {false, true}) {
+    SeparableSet set;
+    for (int j = 0; j < program.variables(); j += discs ? 2 : 1)
+      set.add(discs ? BlockSet::Ball : BlockSet::NonNegative, discs ? 2 : 1, kDiscRadius);
+    std::vector<double> x_one;
+    VectorX v_one;
+    for (int threads : {1, 2, 3, 4}) {
+      MprgpSettings settings;
+      settings.tolerance = 1e-6;
+      settings.max_iterations = 5000;
+      settings.threads = threads;
+      MprgpWorkspace ws;
+      std::vector<double> x(program.variables(), 0.0);
+      VectorX v = VectorX::Zero(program.velocities());
+      const MprgpStats stats = discs ? solveApgd(program, set, settings, x, v, ws)
+                                     : solveMprgp(program, set, settings, x, v, ws);
+      ASSERT_TRUE(stats.converged) << threads << " threads, residual " << stats.residual;
+      if (threads == 1) {
+        x_one = x;
+        v_one = v;
+        std::printf("%s: %d iterations on one thread\n", discs ? "APGD, discs" : "MPRGP, orthant",
+                    stats.iterations);
+        continue;
+      }
+      EXPECT_TRUE(x == x_one) << threads << " threads";
+      EXPECT_TRUE(v == v_one) << threads << " threads";
+    }
+  }
+}
+
 // Programs large enough to be ordered by dissection (sparse_cholesky.cpp), of graphs that
 // METIS's separator meets at its edges: no entry off the diagonal (contacts with the ground
 // alone), many small components, a long thin strip, a grid with loose contacts beside it.
@@ -527,6 +565,59 @@ TEST(ConvexStages, NormalStageMatchesNlgs) {
     EXPECT_LT((velocities[2] - velocities[0]).norm(), 1e-6 * scale);
     EXPECT_LT(iterations[1], iterations[0]);
     EXPECT_LT(iterations[2], iterations[1]);
+  }
+}
+
+// Both stages by MPRGP / APGD on a wide, shallow settled pile of 2 000 disks and of 1 500
+// spheres, with the products taken by the coloured sweeps' chunks (parallel_rows lowered to
+// reach them): 1, 2, 3 and 4 threads give the same bits. The rows' own order (parallel_rows out
+// of reach) sums the velocities in another order: other bits, the same answer to the tolerance.
+TEST(ConvexStages, ColouredProductsGiveTheSameBitsOnAnyThreadCount) {
+  for (bool planar : {true, false}) {
+    GranularBoxParameters box;
+    box.count = planar ? 2000 : 1500;
+    box.planar = planar;
+    box.width = planar ? 0.4 : 0.08;  // a few rows deep: settled in a few hundred steps
+    SchemeSettings scheme;
+    scheme.scheme = Scheme::CatchingUp;
+    scheme.h = 2e-4;
+    scheme.normal_stage.solver = StageSolver::Mprgp;
+    scheme.friction_stage.solver = StageSolver::Mprgp;
+    const test::SettledProblem pile =
+        test::settledProblem(granularBox(box), scheme, 300, NormalLaw::Vel);
+    const ContactProblem& p = pile.step.problem;
+    const int n = p.size();
+    std::printf("%s: %d contacts\n", planar ? "disks" : "spheres", n);
+    ASSERT_GT(n, 8 * kColourChunk);  // blocks enough for several in one colour
+    ASSERT_EQ(static_cast<int>(p.row_components.size()), n);
+    SolverSettings settings;
+    settings.solver = StageSolver::Mprgp;
+    settings.max_iterations = 5000;
+    settings.tolerance = 1e-7;
+    settings.parallel_rows = 16;
+    const FrictionStageOptions options;
+    auto solve = [&](int threads) {
+      SolverWorkspace ws;
+      ws.prepare(n, pile.scene.model.nv, static_cast<int>(pile.scene.model.components.size()));
+      settings.threads = threads;
+      std::vector<double> lambda_N(n, 0.0), delta(n, 0.0);
+      std::vector<Vector2> lambda_T(n, Vector2::Zero());
+      VectorX v = pile.step.v_free;
+      const SolverStats normal = solveNormalStage(p, settings, lambda_N, v, ws);
+      const SolverStats friction =
+          solveFrictionStage(p, settings, options, lambda_N, delta, lambda_T, v, ws);
+      EXPECT_EQ(normal.status, SolverStatus::Converged) << threads << " threads";
+      EXPECT_EQ(friction.status, SolverStatus::Converged) << threads << " threads";
+      return v;
+    };
+    const VectorX reference = solve(1);
+    for (int threads : {2, 3, 4})
+      EXPECT_TRUE(solve(threads) == reference) << (planar ? "disks, " : "spheres, ") << threads;
+    settings.parallel_rows = 1 << 30;
+    const VectorX in_row_order = solve(2);
+    const double scale = (reference - pile.step.v_free).norm();
+    EXPECT_LT((in_row_order - reference).norm(), 1e-5 * scale) << (planar ? "disks" : "spheres");
+    EXPECT_FALSE(in_row_order == reference);
   }
 }
 
