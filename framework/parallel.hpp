@@ -49,26 +49,31 @@ void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
 // n <= kReduceChunk. The chunks go on threads from kParallelItems items on.
 constexpr long kReduceChunk = 4096;
 // `parts` keeps the chunks' parts (no allocation once its capacity suffices: for the loops
-// inside a solver's iterations).
+// inside a solver's iterations). `chunk` items per part: a loop run many times over a few
+// thousand items (a solver's) takes smaller chunks than kReduceChunk, so that its parts split
+// evenly over the threads.
 template <class T, class Add, class Combine>
 T reduceInChunks(long n, int threads, const T& init, std::vector<T>& parts, Add&& add,
-                 Combine&& combine) {
-  const long chunks = (n + kReduceChunk - 1) / kReduceChunk;
+                 Combine&& combine, long chunk = kReduceChunk) {
+  const long chunks = (n + chunk - 1) / chunk;
   T total = init;
   if (threads <= 1 || n < kParallelItems) {
-    for (long chunk = 0; chunk < chunks; ++chunk) {
+    for (long c = 0; c < chunks; ++c) {
       T part = init;
-      for (long i = chunk * kReduceChunk; i < std::min(n, (chunk + 1) * kReduceChunk); ++i)
-        add(i, part);
+      for (long i = c * chunk; i < std::min(n, (c + 1) * chunk); ++i) add(i, part);
       combine(total, part);
     }
     return total;
   }
   parts.assign(chunks, init);
+  // each part summed in a local and stored once: parts of neighbouring chunks share a cache
+  // line, which two threads writing at every item would pass back and forth
 #pragma omp parallel for schedule(static) num_threads(threads)
-  for (long chunk = 0; chunk < chunks; ++chunk)
-    for (long i = chunk * kReduceChunk; i < std::min(n, (chunk + 1) * kReduceChunk); ++i)
-      add(i, parts[chunk]);
+  for (long c = 0; c < chunks; ++c) {
+    T part = init;
+    for (long i = c * chunk; i < std::min(n, (c + 1) * chunk); ++i) add(i, part);
+    parts[c] = part;
+  }
   for (const T& part : parts) combine(total, part);
   return total;
 }
