@@ -84,8 +84,9 @@ struct StepModel {
   const ContactModel& cmodel;
   SchemeSettings settings;
   AppliedForces forces;
-  bool constraint_friction = false;  // a constraint by functions has friction: 5b runs
-  int threads = 1;                   // settings.threadCount()
+  bool constraint_friction = false;    // a constraint by functions has friction: 5b runs
+  int threads = 1;                     // settings.threadCount()
+  std::vector<double> component_mass;  // each body tree's mass (0 for systems by equations)
   double h() const { return settings.h; }
 };
 
@@ -106,6 +107,9 @@ struct StepData {
   // the state: q_k, v_k at the start of a step, q_{k+1}, v_{k+1} after it
   double t = 0.0;
   VectorX q, v;
+  // the scene's size at reset (stepping::checkRunaway): the bodies' spread, at least twice the
+  // smallest moving shape; 0 where there is nothing to measure it by
+  double scene_extent = 0.0;
   VectorX q_m;               // 1: the midpoint configuration
   VectorX v_free;            // 4: the contact-free velocity; 5 turns it into v_{k+1}
   VectorX tau;               // 4: applied forces besides gravity at (t_m, q_m, v_k)
@@ -181,6 +185,9 @@ inline RowOwner rowOwner(const Model& model, int id) {
 // The stages of a step (time_stepper.hpp's table); time_stepper.cpp and step_solve.cpp.
 namespace stepping {
 void reset(const StepModel& m, StepData& d, double t, const VectorX& q, const VectorX& v);
+// after the update: throws RunawayError (framework/error.hpp), naming the step and the body, where
+// a body tree's kinetic energy is that of its mass crossing the scene 100 times in one step
+void checkRunaway(const StepModel& m, const StepData& d);
 void midpoint(const StepModel& m, StepData& d);  // 1
 // 2, with margins of at least `at_least`
 void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least = {});

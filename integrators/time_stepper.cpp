@@ -85,6 +85,10 @@ StepModel::StepModel(const Model& model_, const ContactModel& cmodel_,
   threads = settings.threadCount();
   settings.coulomb.threads = settings.normal_stage.threads = settings.friction_stage.threads =
       threads;
+  component_mass.assign(model.components.size(), 0.0);
+  for (std::size_t c = 0; c < model.components.size(); ++c)
+    for (int b = model.components[c].first_body; b < model.components[c].end_body; ++b)
+      component_mass[c] += model.bodies[b].inertia.mass;
 }
 
 StepData::StepData(const Model& model, const ContactModel& cmodel, const SchemeSettings& settings)
@@ -168,6 +172,7 @@ const StepStats& TimeStepper::step() {
     }
   }
   update(m, d);  // 6
+  checkRunaway(m, d);
   diagnose(m, d);
   // periodic boundaries: bodies that left the cell re-enter at the other side; after the
   // diagnostics, which evaluate the gaps of this step's contacts on this step's images
@@ -197,6 +202,46 @@ void reset(const StepModel& m, StepData& d, double t, const VectorX& q, const Ve
   d.limit_staged.assign(m.model.limits.size() + m.model.constraints.size(), StagedImpulse{});
   d.contact_dv.setZero(m.model.nv);
   d.contact_data = ContactData(m.model, m.cmodel);
+  forwardKinematics(m.model, d.model_data, d.q, d.v);
+  Eigen::AlignedBox3d spread;
+  for (const Pose& pose : d.model_data.world_pose) spread.extend(pose.translation);
+  d.scene_extent =
+      std::max(spread.isEmpty() ? 0.0 : spread.diagonal().norm(), 2.0 * m.cmodel.smallest_size);
+}
+
+void checkRunaway(const StepModel& m, const StepData& d) {
+  // A body tree whose kinetic energy is that of its mass crossing the scene kRunawayExtents
+  // times in one step has run away (a diverging solve or position correction), long before its
+  // coordinates grow large enough to break the collision library's bounding boxes.
+  constexpr double kRunawayExtents = 100.0;
+  if (!(d.scene_extent > 0.0)) return;
+  const double speed = kRunawayExtents * d.scene_extent / m.h();
+  const int trees = static_cast<int>(m.model.components.size() - m.model.systems.size());
+  for (int c = 0; c < trees; ++c) {
+    const Component& comp = m.model.components[c];
+    const double mass = m.component_mass[c];
+    if (comp.nv == 0 || !(mass > 0.0)) continue;
+    const MatrixX& M = d.model_data.mass_blocks[c];  // at the step's midpoint
+    double twice_kinetic = 0.0;
+    if (comp.nv == 6) {  // a free body: a fixed-size product, no temporary
+      const auto v_c = d.v.segment<6>(comp.v_index);
+      twice_kinetic = v_c.dot(Eigen::Map<const Matrix6>(M.data()) * v_c);
+    } else {
+      const auto v_c = d.v.segment(comp.v_index, comp.nv);
+      for (int j = 0; j < comp.nv; ++j) twice_kinetic += v_c[j] * M.col(j).dot(v_c);
+    }
+    if (!(twice_kinetic > mass * speed * speed)) continue;
+    const Body& body = m.model.bodies[comp.first_body];
+    std::ostringstream out;
+    out << "step " << d.stats.step << " (t = " << d.t << " s): body '" << body.name
+        << "' has run away: its kinetic energy " << 0.5 * twice_kinetic
+        << " J is that of its mass moving at " << std::sqrt(twice_kinetic / mass) << " m/s, over "
+        << kRunawayExtents << " times the scene's extent (" << d.scene_extent << " m) per step of "
+        << m.h()
+        << " s (a diverging solve or position correction, or forces far beyond the scene's "
+           "scale)";
+    throw RunawayError(out.str());
+  }
 }
 
 void midpoint(const StepModel& m, StepData& d) {

@@ -613,6 +613,8 @@ PYBIND11_MODULE(sweep, m) {
         options.stop = &stop;
         RunSummary summary;
         runInterruptibly(stop, [&] { summary = runScene(built, file.run, options); });
+        // as `sweep run` fails (its outputs written): a RuntimeError, not a summary to overlook
+        if (!summary.failure.empty()) throw RunawayError(summary.failure);
         return toPython(summaryJson(summary));
       },
       py::arg("scene"), py::arg("out") = py::none(), py::arg("overrides") = py::none(),

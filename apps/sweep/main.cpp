@@ -82,8 +82,9 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
     return text.str();
   };
   out << "\n"
-      << s.scheme << (s.interrupted ? " (INTERRUPTED)" : "") << ": " << s.steps << " steps of "
-      << s.dt << " s to t = " << s.t_reached << " s\n"
+      << s.scheme << (s.interrupted ? " (INTERRUPTED)" : "")
+      << (s.failure.empty() ? "" : " (RAN AWAY)") << ": " << s.steps << " steps of " << s.dt
+      << " s to t = " << s.t_reached << " s\n"
       << "  cpu " << s.cpu_seconds << " s, wall " << s.wall_seconds << " s ("
       << (s.wall_seconds > 0 ? s.steps / s.wall_seconds : 0.0) << " steps/s)\n"
       << "  iterations per step: mean " << s.iterations.mean << ", p50 " << s.iterations.p50
@@ -281,6 +282,10 @@ static int runCommand(int argc, char** argv) {
       const sweep::CooperativeStop polled;  // the loop stops between steps
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
       printSummary(summary, out_dir, std::cout);
+      if (!summary.failure.empty()) {
+        std::cerr << "sweep: failed: " << summary.failure << " (outputs written up to it)\n";
+        return 1;
+      }
       return summary.interrupted ? sweep::stopExitCode() : 0;
     }
     bench_options.out_dir = out_dir;

@@ -446,7 +446,16 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   const auto wall_start = std::chrono::steady_clock::now();
   const double cpu_start = processCpuSeconds();
   for (long k = 0; k < steps; ++k) {
-    const StepStats& s = stepper.step();
+    // a step whose state ran away ends the run as a signal does: stats.csv and the summary
+    // whole up to the step before, final_state.csv the state it ran away to (for inspection);
+    // the command then fails
+    try {
+      stepper.step();
+    } catch (const RunawayError& e) {
+      summary.failure = e.what();  // steps and t_reached stay those of the last whole step
+      break;
+    }
+    const StepStats& s = stepper.stats();
     if (!stepper.q().allFinite() || !stepper.v().allFinite())
       throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exactNumber(s.t) +
                                "): the state is no longer finite");
@@ -553,6 +562,7 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
   };
   nlohmann::ordered_json j;
   j["scheme"] = s.scheme;
+  if (!s.failure.empty()) j["failure"] = s.failure;
   j["threads"] = s.threads;
   j["dt"] = s.dt;
   j["t_end"] = s.t_end;

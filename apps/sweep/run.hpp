@@ -67,6 +67,8 @@ class IterationHistogram {
 
 struct RunSummary {
   std::string scheme;
+  // the state ran away (RunawayError): the message; the outputs hold the run up to that step
+  std::string failure;
   int threads = 1;  // the solves' threads (cpu_seconds adds up every thread's time)
   double dt = 0.0, t_end = 0.0, t_reached = 0.0;
   long steps = 0;

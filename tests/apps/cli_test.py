@@ -311,6 +311,26 @@ class Hostile(unittest.TestCase):
                       "(a folder)", r.stderr)
         self.assertEqual(sorted(os.listdir(out)), ["summary.json"])
 
+    def test_a_run_whose_state_runs_away_fails_with_whole_outputs(self):
+        out = scratch_dir(self, "sweep_runaway_")
+        r = sweep("run", "runaway.yaml", "--out", out, "--quiet")
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("step 1 (t = 0.001 s): body 'ball' has run away", r.stderr)
+        self.assertIn("(RAN AWAY)", r.stdout)
+        self.assertEqual(leftovers(out), [])
+        with open(os.path.join(out, "summary.json")) as f:
+            summary = json.load(f)
+        self.assertIn("has run away", summary["failure"])
+        self.assertEqual(summary["steps"], 0)
+        self.assertEqual(read_csv(os.path.join(out, "stats.csv")), [])
+        # the state it ran away to, at the end of step 1 (5e8 m/s^2 for 1 ms: 5e5 m/s)
+        state = read_csv(os.path.join(out, "final_state.csv"))
+        self.assertEqual(float(state[0]["value"]), 0.001)
+        # a run of the same scene within bounds (a thousandth of the force) succeeds
+        ok = sweep("run", "runaway.yaml", "--out", out, "--quiet",
+                   "--set", "loads[0].force=[0, 1e6, 0]")
+        self.assertEqual(ok.returncode, 0, ok.stdout + ok.stderr)
+
     def test_a_report_that_cannot_be_written_is_a_failure(self):
         if not os.path.exists("/dev/full"):
             self.skipTest("no /dev/full")

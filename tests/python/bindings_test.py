@@ -145,6 +145,19 @@ class Scenes(unittest.TestCase):
         with self.assertRaises(sweep.InputError):
             sweep.Simulation(FUNNEL, scheme="leapfrog")
 
+    def test_a_state_that_runs_away_raises(self):
+        scene = os.path.join(SOURCE, "tests/data/scenes/runaway.yaml")
+        out = scratch_dir(self, "sweep_py_runaway_")
+        with self.assertRaises(RuntimeError) as error:
+            sweep.run(scene, out=out)
+        self.assertIn("body 'ball' has run away", str(error.exception))
+        with open(os.path.join(out, "summary.json")) as f:
+            self.assertIn("has run away", json.load(f)["failure"])
+        sim = sweep.Simulation(scene)
+        with self.assertRaises(RuntimeError) as error:
+            sim.run(0.01)
+        self.assertIn("step 1 (t = 0.001 s)", str(error.exception))
+
     def test_ctrl_c_stops_a_run(self):
         script = textwrap.dedent(f"""
             import sys, time
