@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_parser.hpp"
 #include "apps/sweep/signals.hpp"
 #include "apps/sweep/yaml_field.hpp"
 #include "contact/mesh_io.hpp"
@@ -52,845 +53,457 @@ Matrix3 rotationWithNormal(const Vector3& normal, int dimension) {
   return r;
 }
 
-class SceneParser {
- public:
-  SceneParser(const std::string& path, SceneFile& out, long max_count)
-      : path_(path), out_(out), max_count_(max_count) {}
-
-  void parse(const YamlField& root) {
-    root.requireMap();
-    root.allowOnly({"dimension", "gravity", "materials", "contact", "bodies", "generators", "urdf",
-                    "loads", "detection", "scheme", "time", "output"});
-    SceneSpec& spec = out_.spec;
-    spec.source = path_;
-    if (!root.has("dimension")) root["dimension"].fail("is required (2 or 3)");
-    const long dimension = root["dimension"].integer();
-    if (dimension != 2 && dimension != 3) root["dimension"].fail("must be 2 or 3");
-    spec.dimension = static_cast<int>(dimension);
-    spec.gravity = spec.dimension == 2 ? Vector3(0, -9.81, 0) : Vector3(0, 0, -9.81);
-    if (root.has("gravity")) spec.gravity = root["gravity"].vector(spec.dimension);
-    if (root.has("materials")) parseMaterials(root["materials"]);
-    if (root.has("generators")) parseGenerators(root["generators"]);
-    if (root.has("contact")) parseContact(root["contact"]);
-    if (root.has("bodies")) {
-      const YamlField bodies = root["bodies"];
-      bodies.requireSequence();
-      explicit_from_ = spec.bodies.size();
-      for (std::size_t i = 0; i < bodies.size(); ++i)
-        spec.bodies.push_back(parseBody(bodies.at(i)));
-    }
-    if (root.has("urdf")) parseUrdfs(root["urdf"]);
-    if (root.has("loads")) parseLoads(root["loads"]);
-    if (root.has("detection")) parseDetection(root["detection"]);
-    if (root.has("scheme")) parseScheme(root["scheme"]);
-    if (root.has("time")) parseTime(root["time"]);
-    if (root.has("output")) parseOutput(root["output"]);
-    try {  // the run's step count, as `run` will count it
-      stepCount(0.0, out_.run.t_end, out_.run.scheme.h);
-    } catch (const InputError& e) {
-      throw InputError(path_ + ": " + e.what());
-    }
-    // a powder bed is judged by its layer unless the file says how
-    if (powder_layer_ && !out_.run.output.layer) out_.run.output.layer = powder_layer_;
-    checkNames(root);
-  }
-
- private:
-  void parseMaterials(const YamlField& materials) {
-    for (const std::string& name : materials.keys()) {
-      const YamlField m = materials[name];
-      if (!m.isMap() && !m.isNull()) m.fail("must be a map such as {density: 7800}");
-      MaterialSpec spec{name, 0.0};
-      if (m.isMap()) {
-        m.allowOnly({"density"});
-        spec.density = m.positive("density", 0.0);
-      }
-      addMaterial(spec, m);
-    }
-  }
-
-  void addMaterial(const MaterialSpec& material, const YamlField& where) {
-    for (const MaterialSpec& m : out_.spec.materials)
-      if (m.name == material.name) where.fail("material '" + material.name + "' is defined twice");
-    out_.spec.materials.push_back(material);
-  }
-
-  ContactLaw parseLaw(const YamlField& f, const ContactLaw& fallback) {
-    ContactLaw law = fallback;
-    law.friction = f.nonNegative("friction", law.friction);
-    if (f.has("restitution")) {
-      law.restitution = f["restitution"].number();
-      if (!(law.restitution >= 0.0 && law.restitution <= 1.0))
-        f["restitution"].fail("must be in [0, 1]");
-    }
-    law.rolling = f.nonNegative("rolling_resistance", law.rolling);
-    return law;
-  }
-
-  void parseContact(const YamlField& contact) {
-    contact.allowOnly({"friction", "restitution", "rolling_resistance", "pairs"});
-    out_.spec.default_law = parseLaw(contact, out_.spec.default_law);
-    if (!contact.has("pairs")) return;
-    const YamlField pairs = contact["pairs"];
-    pairs.requireSequence();
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-      const YamlField p = pairs.at(i);
-      p.allowOnly({"materials", "friction", "restitution", "rolling_resistance"});
-      const YamlField names = p["materials"];
-      if (!names.isSequence() || names.size() != 2) names.fail("must name two materials");
-      ContactLawSpec law{names.at(0).text(), names.at(1).text(),
-                         parseLaw(p, out_.spec.default_law)};
-      for (std::size_t k = 0; k < 2; ++k) requireMaterial(names.at(k), names.at(k).text());
-      // a second law for the same pair (in either order) would silently replace the first
-      for (std::size_t j = 0; j < i; ++j) {
-        const YamlField other = pairs.at(j)["materials"];
-        const std::string a = other.at(0).text(), b = other.at(1).text();
-        if ((a == law.material_a && b == law.material_b) ||
-            (a == law.material_b && b == law.material_a))
-          names.fail("this pair already has a law at " + pairs.path() + "[" + std::to_string(j) +
-                     "]");
-      }
-      out_.spec.laws.push_back(law);
-    }
-  }
-
-  void requireMaterial(const YamlField& where, const std::string& name) {
-    for (const MaterialSpec& m : out_.spec.materials)
-      if (m.name == name) return;
-    where.fail("no such material (define it under materials)");
-  }
-
-  // a mesh's file and scale are kept in `spec` for export
-  Shape parseShape(const YamlField& body, const std::string& type, BodySpec& spec) {
-    auto point2 = [&](const char* key) {
-      const Vector3 v = body[key].vector(2);
-      return Vector2(v.x(), v.y());
-    };
-    if (type == "disk") return Shape::disk(body["radius"].positive());
-    if (type == "segment") {
-      return Shape::segment(point2("start"), point2("end"), body.nonNegative("radius", 0.0));
-    }
-    if (type == "polygon") {
-      const YamlField vertices = body["vertices"];
-      vertices.requireSequence();
-      std::vector<Vector2> points;
-      for (std::size_t k = 0; k < vertices.size(); ++k) {
-        const Vector3 v = vertices.at(k).vector(2);
-        points.emplace_back(v.x(), v.y());
-      }
-      return Shape::polygon(points);
-    }
-    if (type == "half_plane") return Shape::halfPlane();
-    if (type == "sphere") return Shape::sphere(body["radius"].positive());
-    if (type == "box") {
-      const Vector3 size = body["size"].vector(3);
-      for (int k = 0; k < 3; ++k)
-        if (!(size[k] > 0.0)) body["size"].at(k).fail("must be > 0");
-      return Shape::box(size);
-    }
-    if (type == "cylinder")
-      return Shape::cylinder(body["radius"].positive(), body["length"].positive());
-    if (type == "capsule")
-      return Shape::capsule(body["radius"].positive(), body["length"].positive());
-    if (type == "plane") return Shape::halfSpace();
-    if (type == "mesh") {
-      Vector3 scale = Vector3::Ones();
-      if (body.has("scale")) {
-        scale = body["scale"].isSequence() ? body["scale"].vector(3)
-                                           : Vector3::Constant(body["scale"].positive());
-        for (int k = 0; k < 3; ++k)
-          if (!(scale[k] > 0.0)) body["scale"].at(k).fail("must be > 0");
-      }
-      const std::string file = resolve(path_, body["file"].text());
-      std::error_code error;
-      if (fs::is_directory(file, error)) body["file"].fail("is a folder, not a mesh file");
-      if (!fs::is_regular_file(file, error)) body["file"].fail("no such file (" + file + ")");
-      spec.mesh_file = file;
-      spec.mesh_scale = scale;
-      std::shared_ptr<TriangleMesh> mesh;
-      try {
-        mesh = loadTriangleMesh(file, scale);
-      } catch (const InputError& e) {
-        throw InputError(path_ + ": " + body["file"].path() + ": " + e.what());
-      }
-      return body.boolean("convex", false) ? Shape::convexMesh(mesh) : Shape::triangleMesh(mesh);
-    }
-    body["shape"].fail(
-        "must be one of disk, segment, polygon, half_plane (2D) or sphere, box, cylinder, "
-        "capsule, mesh, plane (3D)");
-  }
-
-  BodySpec parseBody(const YamlField& f) {
-    f.allowOnly({"name",
-                 "shape",
-                 "radius",
-                 "start",
-                 "end",
-                 "vertices",
-                 "size",
-                 "length",
-                 "file",
-                 "scale",
-                 "convex",
-                 "normal",
-                 "position",
-                 "angle",
-                 "rpy",
-                 "velocity",
-                 "angular_velocity",
-                 "material",
-                 "mass",
-                 "inertia",
-                 "fixed",
-                 "motion"});
-    const int dim = out_.spec.dimension;
-    BodySpec b;
-    b.name = f.text("name", "body" + std::to_string(out_.spec.bodies.size()));
-    if (!f.has("shape")) f["shape"].fail("is required");
-    const std::string type = f["shape"].text();
-    const bool planar_type =
-        type == "disk" || type == "segment" || type == "polygon" || type == "half_plane";
-    const bool known = planar_type || type == "sphere" || type == "box" || type == "cylinder" ||
-                       type == "capsule" || type == "mesh" || type == "plane";
-    if (known && planar_type != (dim == 2))
-      f["shape"].fail(std::string("is not a shape of a ") + (dim == 2 ? "2D" : "3D") + " scene");
-    b.shape = parseShape(f, type, b);
-    if (f.has("material")) {
-      b.material = f["material"].text();
-      requireMaterial(f["material"], b.material);
-    }
-    if (f.has("position")) b.pose.translation = f["position"].vector(dim);
-    if (dim == 2 && f.has("angle")) {
-      b.written_angle = f["angle"].number();
-      b.pose.rotation = Eigen::AngleAxisd(*b.written_angle, Vector3::UnitZ()).toRotationMatrix();
-    }
-    if (dim == 2 && f.has("rpy")) f["rpy"].fail("is for 3D scenes; use angle");
-    if (dim == 3 && f.has("rpy")) {
-      b.written_rpy = f["rpy"].vector(3);
-      b.pose.rotation = rotationFromRpy(*b.written_rpy);
-    }
-    if (dim == 3 && f.has("angle")) f["angle"].fail("is for 2D scenes; use rpy");
-    if (isUnbounded(b.shape)) {
-      if (!f.has("normal")) f["normal"].fail("is required for a " + type);
-      const Vector3 given = f["normal"].vector(dim);
-      b.written_normal = given;
-      const double largest = given.cwiseAbs().maxCoeff();
-      if (!(largest > 0.0)) f["normal"].fail("must not be zero");
-      // scaled before its norm is taken: the squares of 1e200 or 1e-200 overflow or vanish
-      const Vector3 n = given / largest;
-      b.pose.rotation = rotationWithNormal(n, dim);
-    } else if (f.has("normal")) {
-      f["normal"].fail("only half-planes and planes take a normal");
-    }
-
-    const bool fixed = f.boolean("fixed", false);
-    if (fixed && f.has("motion")) f["motion"].fail("a fixed body cannot also move");
-    b.kind = fixed ? BodySpec::Kind::Fixed
-                   : (f.has("motion") ? BodySpec::Kind::Driven : BodySpec::Kind::Dynamic);
-    if (isUnbounded(b.shape) && b.kind == BodySpec::Kind::Dynamic)
-      f["shape"].fail("a " + type + " cannot be dynamic; add fixed: true");
-    if (b.kind != BodySpec::Kind::Dynamic)
-      for (const char* key : {"velocity", "angular_velocity", "mass", "inertia"})
-        if (f.has(key)) f[key].fail("only dynamic bodies take it");
-
-    if (f.has("velocity")) b.velocity = f["velocity"].vector(dim);
-    if (f.has("angular_velocity")) {
-      if (dim == 2)
-        b.angular_velocity = Vector3(0, 0, f["angular_velocity"].number());
-      else
-        b.angular_velocity = f["angular_velocity"].vector(3);
-    }
-    if (f.has("mass")) b.mass = f["mass"].positive();
-    if (f.has("inertia")) {
-      const YamlField in = f["inertia"];
-      Vector3 moments;
-      if (dim == 2) {
-        const double izz = in.positive();
-        moments = Vector3(0.5 * izz, 0.5 * izz, izz);
-      } else {
-        moments = in.vector(3);
-        for (int k = 0; k < 3; ++k)
-          if (!(moments[k] > 0.0)) in.at(k).fail("must be > 0");
-      }
-      if (!b.mass) in.fail("needs a mass beside it");
-      b.principal_inertia = moments;
-    }
-    if (b.kind == BodySpec::Kind::Dynamic && !b.mass && b.material.empty())
-      f.fail("a dynamic body needs a material with a density, or a mass");
-    if (b.kind == BodySpec::Kind::Dynamic && !b.mass) {
-      for (const MaterialSpec& m : out_.spec.materials)
-        if (m.name == b.material && !(m.density > 0.0))
-          f["material"].fail("material '" + m.name + "' has no density; give the body a mass");
-    }
-    if (b.kind == BodySpec::Kind::Driven) b.motion = parseMotion(f["motion"]);
-    return b;
-  }
-
-  MotionSpec parseMotion(const YamlField& f) {
-    f.allowOnly({"type", "velocity", "angular_velocity", "times", "positions", "remove_at"});
-    const int dim = out_.spec.dimension;
-    MotionSpec m;
-    const std::string type = f.text("type", "fixed");
-    if (type == "fixed") {
-      m.kind = MotionSpec::Kind::Fixed;
-    } else if (type == "velocity") {
-      m.kind = MotionSpec::Kind::Velocity;
-      if (f.has("velocity")) m.linear_velocity = f["velocity"].vector(dim);
-      if (f.has("angular_velocity"))
-        m.angular_velocity = dim == 2 ? Vector3(0, 0, f["angular_velocity"].number())
-                                      : f["angular_velocity"].vector(3);
-    } else if (type == "keyframes") {
-      m.kind = MotionSpec::Kind::Keyframes;
-      m.times = f["times"].numbers();
-      const YamlField positions = f["positions"];
-      positions.requireSequence();
-      if (positions.size() != m.times.size() || m.times.empty())
-        positions.fail("must hold one position per time");
-      for (std::size_t k = 0; k < positions.size(); ++k) {
-        m.positions.push_back(positions.at(k).vector(dim));
-        if (k > 0 && !(m.times[k] > m.times[k - 1])) f["times"].at(k).fail("times must increase");
-      }
-    } else {
-      f["type"].fail("must be fixed, velocity or keyframes");
-    }
-    if (type != "velocity")
-      for (const char* key : {"velocity", "angular_velocity"})
-        if (f.has(key)) f[key].fail("only a velocity motion takes it");
-    if (type != "keyframes")
-      for (const char* key : {"times", "positions"})
-        if (f.has(key)) f[key].fail("only a keyframes motion takes it");
-    if (f.has("remove_at")) m.removal_time = f["remove_at"].number();
-    return m;
-  }
-
-  RadiusDistribution parseRadius(const YamlField& f) {
-    if (f.isScalar()) return RadiusDistribution::constant(f.positive());
-    f.requireMap();
-    if (f.has("mean")) {
-      f.allowOnly({"mean", "std"});
-      const double std = f.nonNegative("std", 0.0);
-      const double mean = f["mean"].positive();
-      if (!(mean - 3.0 * std > 0.0)) f["std"].fail("must be below mean / 3 (radii stay > 0)");
-      return RadiusDistribution::normal(mean, std);
-    }
-    f.allowOnly({"min", "max"});
-    const double low = f["min"].positive(), high = f["max"].positive();
-    if (!(high >= low)) f["max"].fail("must be >= min");
-    return RadiusDistribution::uniform(low, high);
-  }
-
-  void parseGenerators(const YamlField& generators) {
-    generators.requireSequence();
-    for (std::size_t i = 0; i < generators.size(); ++i) {
-      const YamlField g = generators.at(i);
-      g.requireMap();
-      const std::string type = g["type"].text();
-      if (type == "hall_funnel")
-        hallFunnelGenerator(g);
-      else if (type == "powder_bed")
-        powderBedGenerator(g);
-      else if (type == "disks" || type == "spheres")
-        latticeGenerator(g, type == "disks");
-      else
-        g["type"].fail("must be disks, spheres, hall_funnel or powder_bed");
-    }
-  }
-
-  void latticeGenerator(const YamlField& g, bool disks) {
-    g.allowOnly(
-        {"type", "count", "name", "radius", "region", "spacing", "seed", "material", "velocity"});
-    const int dim = out_.spec.dimension;
-    if (disks != (dim == 2))
-      g["type"].fail(std::string("does not fit a ") + std::to_string(dim) + "D scene");
-    const long count = g["count"].integer();
-    if (count < 1 || count > max_count_) g["count"].fail("must be in [1, " + countLimit() + "]");
-    planBodies(g["count"], count);
-    const RadiusDistribution distribution = parseRadius(g["radius"]);
-    const long seed = g.integer("seed", 1);
-    if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
-    const std::vector<double> radii =
-        sampleRadii(distribution, static_cast<int>(count), static_cast<std::uint32_t>(seed));
-    const double spacing = g.number("spacing", 1.1);
-    if (!(spacing >= 1.0)) g["spacing"].fail("must be >= 1 (grains may not overlap)");
-    const YamlField region = g["region"];
-    region.allowOnly({"min", "max"});
-    const Vector3 low = region["min"].vector(dim), high = region["max"].vector(dim);
-    const double pitch = 2.0 * *std::max_element(radii.begin(), radii.end()) * spacing;
-    long across[3] = {1, 1, 1};
-    for (int k = 0; k < dim; ++k) {
-      const double fits = std::floor((high[k] - low[k]) / pitch);
-      if (!(fits >= 1.0))
-        region.fail("is narrower than one lattice pitch (" + formatValue(pitch) + ")");
-      // no more than `count` along any axis is ever needed (and the product cannot overflow)
-      across[k] = fits < static_cast<double>(count) ? static_cast<long>(fits) : count;
-    }
-    const long capacity = across[0] * across[1] * across[2];
-    if (capacity < count)
-      g["count"].fail("the region holds only " + std::to_string(capacity) +
-                      " grains at this spacing");
-    const std::string material = g.text("material", "");
-    if (!material.empty()) requireMaterial(g["material"], material);
-    const Vector3 velocity = g.has("velocity") ? g["velocity"].vector(dim) : Vector3::Zero();
-    const std::string prefix = g.text("name", disks ? "disk" : "sphere");
-    // fill x first, then z (3D), then y upwards: the lattice grows from the floor
-    for (long i = 0; i < count; ++i) {
-      BodySpec b;
-      b.name = prefix + std::to_string(i);
-      b.shape = disks ? Shape::disk(radii[i]) : Shape::sphere(radii[i]);
-      b.material = material;
-      const long ix = i % across[0];
-      const long iz = dim == 3 ? (i / across[0]) % across[2] : 0;
-      const long iy = dim == 3 ? i / (across[0] * across[2]) : i / across[0];
-      b.pose.translation = low + pitch * Vector3(0.5 + ix, 0.5 + iy, dim == 3 ? 0.5 + iz : 0.0);
-      if (dim == 2) b.pose.translation.z() = 0.0;
-      b.velocity = velocity;
-      out_.spec.bodies.push_back(b);
-    }
-  }
-
-  void hallFunnelGenerator(const YamlField& g) {
-    g.allowOnly({"type", "count", "radius_mean", "radius_std", "density", "friction", "restitution",
-                 "included_angle", "orifice", "shutter_time", "lattice_spacing", "seed"});
-    if (out_.spec.dimension != 2) g["type"].fail("is a 2D generator");
-    FunnelParameters p;
-    const long count = g.integer("count", p.count);
-    if (count > max_count_) g["count"].fail("must be <= " + countLimit());
-    if (count > 0) planBodies(g["count"], count);
-    p.count = static_cast<int>(count);
-    p.radius_mean = g.number("radius_mean", p.radius_mean);
-    p.radius_std = g.number("radius_std", p.radius_std);
-    p.density = g.number("density", p.density);
-    p.friction = g.number("friction", p.friction);
-    p.restitution = g.number("restitution", p.restitution);
-    p.included_angle = g.number("included_angle", p.included_angle);
-    p.orifice = g.number("orifice", p.orifice);
-    p.shutter_time = g.number("shutter_time", p.shutter_time);
-    p.lattice_spacing = g.number("lattice_spacing", p.lattice_spacing);
-    const long seed = g.integer("seed", p.seed);
-    if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
-    p.seed = static_cast<std::uint32_t>(seed);
-    addGenerated(g, [&] { return hallFunnel(p); });
-  }
-
-  // Runs a scene builder for generator g and merges its materials, laws and bodies. The
-  // builder names the parameter in its errors; this adds where it came from.
-  template <class Build>
-  SceneSpec addGenerated(const YamlField& g, Build&& build) {
-    SceneSpec made;
-    try {
-      made = build();
-    } catch (const InputError& e) {
-      throw InputError(path_ + ": " + g.path() + ": " + e.what());
-    }
-    for (const MaterialSpec& m : made.materials) addMaterial(m, g);
-    out_.spec.laws.insert(out_.spec.laws.end(), made.laws.begin(), made.laws.end());
-    out_.spec.bodies.insert(out_.spec.bodies.end(), made.bodies.begin(), made.bodies.end());
-    return made;
-  }
-
-  void powderBedGenerator(const YamlField& g) {
-    g.allowOnly({"type",
-                 "count",
-                 "sizes",
-                 "density",
-                 "friction",
-                 "restitution",
-                 "rolling_resistance",
-                 "length",
-                 "width",
-                 "height",
-                 "gap",
-                 "blade_thickness",
-                 "blade_start",
-                 "speed",
-                 "travel",
-                 "heap_length",
-                 "settle_time",
-                 "lattice_spacing",
-                 "spreader",
-                 "roller_radius",
-                 "roller_spin",
-                 "plate",
-                 "copies_across",
-                 "seed"});
-    if (out_.spec.dimension != 3) g["type"].fail("is a 3D generator");
-    if (powder_layer_) g["type"].fail("a scene holds one powder bed");
-    PowderBedParameters p;
-    const long count = g.integer("count", p.count);
-    if (count < 1 || count > max_count_) g["count"].fail("must be in [1, " + countLimit() + "]");
-    p.count = static_cast<int>(count);
-    const long copies = g.integer("copies_across", 1);
-    if (copies < 1 || copies > max_count_ / count)
-      g["copies_across"].fail("must be >= 1, with count * copies_across <= " + countLimit());
-    planBodies(g.has("copies_across") ? g["copies_across"] : g["count"], count * copies);
-    p.copies_across = static_cast<int>(copies);
-    if (g.has("sizes")) {
-      const YamlField sizes = g["sizes"];
-      sizes.requireMap();
-      const std::string kind = sizes.text("kind", "discrete");
-      if (kind == "discrete") {
-        sizes.allowOnly({"kind", "diameters", "mass_fractions"});
-        p.sizes = PowderBedParameters::Sizes::Discrete;
-        p.diameters = sizes["diameters"].numbers();
-        p.mass_fractions = sizes["mass_fractions"].numbers();
-      } else if (kind == "lognormal") {
-        sizes.allowOnly({"kind", "d50", "geometric_std", "d_min", "d_max"});
-        p.sizes = PowderBedParameters::Sizes::LogNormal;
-        p.d50 = sizes.number("d50", p.d50);
-        p.geometric_std = sizes.number("geometric_std", p.geometric_std);
-        p.d_min = sizes.number("d_min", p.d_min);
-        p.d_max = sizes.number("d_max", p.d_max);
-      } else {
-        sizes["kind"].fail("must be discrete or lognormal");
-      }
-    }
-    for (const auto& [key, field] :
-         std::vector<std::pair<const char*, double*>>{{"density", &p.density},
-                                                      {"friction", &p.friction},
-                                                      {"restitution", &p.restitution},
-                                                      {"rolling_resistance", &p.rolling_resistance},
-                                                      {"length", &p.length},
-                                                      {"width", &p.width},
-                                                      {"height", &p.height},
-                                                      {"gap", &p.gap},
-                                                      {"blade_thickness", &p.blade_thickness},
-                                                      {"blade_start", &p.blade_start},
-                                                      {"speed", &p.speed},
-                                                      {"travel", &p.travel},
-                                                      {"heap_length", &p.heap_length},
-                                                      {"settle_time", &p.settle_time},
-                                                      {"lattice_spacing", &p.lattice_spacing},
-                                                      {"roller_radius", &p.roller_radius},
-                                                      {"roller_spin", &p.roller_spin}})
-      *field = g.number(key, *field);
-    const std::string spreader = g.text("spreader", "blade");
-    if (spreader != "blade" && spreader != "roller") g["spreader"].fail("must be blade or roller");
-    p.roller = spreader == "roller";
-    const std::string plate = g.text("plate", "flat");
-    if (plate != "flat" && plate != "rough") g["plate"].fail("must be flat or rough");
-    p.rough_plate = plate == "rough";
-    const long seed = g.integer("seed", 1);
-    if (seed < 0 || seed > 4294967295L) g["seed"].fail("must be in [0, 2^32)");
-    p.seed = static_cast<std::uint32_t>(seed);
-    // the cheap checks and the rough plate's size before anything is built
-    long plate_spheres = 0;
-    try {
-      p.validate(g.path());
-      plate_spheres = roughPlateSpheres(p, powderDiameters(p), g.path());
-    } catch (const InputError& e) {
-      const std::string message = e.what();
-      throw InputError(path_ + ": " + (message.rfind(g.path(), 0) == 0 ? "" : g.path() + ": ") +
-                       message);
-    }
-    if (plate_spheres > 0) planBodies(g["plate"], plate_spheres);
-    const SceneSpec bed = addGenerated(g, [&] { return powderBed(p); });
-    out_.spec.detection.path = bed.detection.path;
-    out_.spec.detection.periodic = bed.detection.periodic;
-    powder_layer_ = defaultLayerWindow(p);
-  }
-
-  void parseUrdfs(const YamlField& list) {
-    list.requireSequence();
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const YamlField f = list.at(i);
-      f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
-                   "material", "link_materials", "joint_springs", "package_paths", "missing_meshes",
-                   "actuators"});
-      UrdfSpec u;
-      if (f.has("package_paths")) {
-        const YamlField paths = f["package_paths"];
-        paths.requireSequence();
-        for (std::size_t k = 0; k < paths.size(); ++k) {
-          const std::string folder = resolve(path_, paths.at(k).text());
-          std::error_code error;
-          if (!fs::is_directory(folder, error))
-            paths.at(k).fail("is not a folder (" + folder + ")");
-          u.package_paths.push_back(folder);
-        }
-      }
-      u.missing_meshes = f.choice("missing_meshes", MissingMeshes::Refuse);
-      u.file = resolve(path_, f["file"].text());
-      if (!fs::is_regular_file(u.file)) f["file"].fail("no such file (" + u.file + ")");
-      u.prefix = f.text("prefix", "");
-      u.floating_base = f.boolean("floating", false);
-      if (f.has("position")) u.base.translation = f["position"].vector(3);
-      if (f.has("rpy")) {
-        u.written_rpy = f["rpy"].vector(3);
-        u.base.rotation = rotationFromRpy(*u.written_rpy);
-      }
-      auto joints = [&](const char* key, std::vector<std::pair<std::string, double>>& out) {
-        if (!f.has(key)) return;
-        for (const std::string& name : f[key].keys()) out.emplace_back(name, f[key][name].number());
-      };
-      joints("joints", u.joint_positions);
-      joints("velocities", u.joint_velocities);
-      if (f.has("material")) {
-        u.material = f["material"].text();
-        requireMaterial(f["material"], u.material);
-      }
-      if (f.has("link_materials")) {
-        const YamlField links = f["link_materials"];
-        links.requireMap();
-        for (const std::string& link : links.keys()) {
-          const std::string material = links[link].text();
-          requireMaterial(links[link], material);
-          u.link_materials.emplace_back(link, material);
-        }
-      }
-      if (f.has("joint_springs")) {
-        const YamlField springs = f["joint_springs"];
-        springs.requireMap();
-        for (const std::string& joint : springs.keys()) {
-          const YamlField spring = springs[joint];
-          spring.requireMap();
-          spring.allowOnly({"stiffness", "rest"});
-          if (!spring.has("stiffness")) spring["stiffness"].fail("is required");
-          u.joint_springs.push_back(
-              {joint, spring.nonNegative("stiffness", 0.0), spring.number("rest", 0.0)});
-        }
-      }
-      if (f.has("actuators")) parseActuators(f["actuators"], u);
-      out_.spec.urdfs.push_back(u);
-    }
-  }
-
-  // a value (a constant) or {times: [...], values: [...]}, linear between the times
-  static TimeTable timeTable(const YamlField& f) {
-    if (!f.isMap()) return TimeTable::constant(f.number());
-    f.allowOnly({"times", "values"});
-    TimeTable table{f["times"].numbers(), f["values"].numbers()};
-    if (table.values.empty()) f["values"].fail("must hold at least one value");
-    try {
-      checkTimeTable(table, f.path());
-    } catch (const InputError& error) {
-      throw InputError(f.file() + ": " + error.what());
-    }
-    return table;
-  }
-
-  // urdf[].actuators: {JOINT: {torque, kp, kd, position, velocity, max_torque}}
-  void parseActuators(const YamlField& map, UrdfSpec& u) {
-    map.requireMap();
-    for (const std::string& joint : map.keys()) {
-      const YamlField f = map[joint];
-      f.requireMap();
-      f.allowOnly({"torque", "kp", "kd", "position", "velocity", "max_torque", "prescribed"});
-      UrdfSpec::Actuator a;
-      a.drive.joint = joint;
-      if (f.has("torque")) a.drive.torque = timeTable(f["torque"]);
-      a.drive.kp = f.nonNegative("kp", 0.0);
-      a.drive.kd = f.nonNegative("kd", 0.0);
-      if (f.has("position")) a.drive.position = timeTable(f["position"]);
-      if (f.has("velocity")) a.drive.velocity = timeTable(f["velocity"]);
-      if (f.has("prescribed")) {
-        for (const char* other : {"torque", "kp", "kd", "position", "velocity"})
-          if (f.has(other))
-            f[other].fail("a prescribed joint follows its motion exactly: give prescribed alone");
-        a.drive.prescribed = true;
-        a.drive.position = timeTable(f["prescribed"]);
-      }
-      a.max_torque_given = f.has("max_torque");
-      if (a.max_torque_given) a.drive.max_torque = f["max_torque"].positive();
-      if (a.drive.kp > 0.0 && a.drive.position.empty())
-        f["kp"].fail("needs a target: give position (a value or {times, values})");
-      if (!a.drive.prescribed && a.drive.torque.empty() && !a.drive.servo())
-        f.fail(
-            "has neither a torque nor servo gains (kp, kd); a motor commanded from Python "
-            "starts from torque: 0");
-      u.actuators.push_back(a);
-    }
-  }
-
-  // loads: a force and a torque on a dynamic body, each a constant plus a rate (a ramp)
-  void parseLoads(const YamlField& list) {
-    list.requireSequence();
-    const int dim = out_.spec.dimension;
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const YamlField f = list.at(i);
-      f.allowOnly({"body", "force", "force_rate", "torque", "torque_rate"});
-      LoadSpec load;
-      load.body = f["body"].text();
-      bool found = false;
-      for (const BodySpec& b : out_.spec.bodies)
-        found = found || (b.name == load.body && b.kind == BodySpec::Kind::Dynamic);
-      if (!found) f["body"].fail("no dynamic body of this name under bodies");
-      if (f.has("force")) load.force = f["force"].vector(dim);
-      if (f.has("force_rate")) load.force_rate = f["force_rate"].vector(dim);
-      auto torque = [&](const char* key, Vector3& out) {
-        if (!f.has(key)) return;
-        out = dim == 2 ? Vector3(0, 0, f[key].number()) : f[key].vector(3);
-      };
-      torque("torque", load.torque);
-      torque("torque_rate", load.torque_rate);
-      out_.spec.loads.push_back(load);
-    }
-  }
-
-  void parseDetection(const YamlField& f) {
-    f.allowOnly({"path", "speed_factor", "margin_rule", "verify_margin", "margin", "self_collision",
-                 "max_initial_overlap", "periodic"});
-    DetectionSettings& d = out_.spec.detection;
-    d.path = f.choice("path", DetectionPathChoice::Automatic);
-    d.speed_factor = f.nonNegative("speed_factor", d.speed_factor);
-    d.verify_margin = f.boolean("verify_margin", d.verify_margin);
-    d.margin_rule = f.choice("margin_rule", d.margin_rule);
-    d.floor = f.nonNegative("margin", d.floor);
-    d.self_collision = f.boolean("self_collision", d.self_collision);
-    out_.spec.max_initial_overlap = f.number("max_initial_overlap", out_.spec.max_initial_overlap);
-    if (f.has("periodic")) {
-      const YamlField periodic = f["periodic"];
-      periodic.allowOnly({"axis", "low", "high"});
-      const std::string axis = periodic["axis"].text();
-      if (axis != "x" && axis != "y" && (axis != "z" || out_.spec.dimension == 2))
-        periodic["axis"].fail(out_.spec.dimension == 2 ? "must be x or y" : "must be x, y or z");
-      d.periodic.axis = axis[0] - 'x';
-      d.periodic.low = periodic["low"].number();
-      d.periodic.high = periodic["high"].number();
-      if (!(d.periodic.high > d.periodic.low)) periodic["high"].fail("must be > low");
-    }
-  }
-
-  // convex: a stage of scheme B, which may take the convex solver
-  // stage: one of scheme B's stages, which choose their solver; scheme A's coupled problem
-  // is not convex and takes NLGS only, with its 3D local solver and its coloured sweeps
-  SolverSettings parseSolver(const YamlField& f, SolverSettings s, bool stage) {
-    if (stage)
-      f.allowOnly({"solver", "max_iterations", "tolerance", "residual_check_interval", "relaxation",
-                   "shuffle", "seed", "acceleration"});
-    else
-      f.allowOnly({"max_iterations", "tolerance", "residual_check_interval", "relaxation",
-                   "shuffle", "seed", "local_solver", "acceleration", "parallel_rows"});
-    if (stage) s.solver = f.choice("solver", s.solver);
-    const long cap = f.integer("max_iterations", s.max_iterations);
-    if (cap < 1 || cap > 100000000) f["max_iterations"].fail("must be in [1, 10^8]");
-    s.max_iterations = static_cast<int>(cap);
-    s.tolerance = f.positive("tolerance", s.tolerance);
-    const long interval = f.integer("residual_check_interval", s.residual_check_interval);
-    if (interval < 0 || interval > 100000000)
-      f["residual_check_interval"].fail("must be in [0, 10^8] (0: only once the impulses settle)");
-    s.residual_check_interval = static_cast<int>(interval);
-    s.relaxation = f.positive("relaxation", s.relaxation);
-    if (!(s.relaxation < 2.0)) f["relaxation"].fail("must be in (0, 2)");
-    s.shuffle = f.boolean("shuffle", s.shuffle);
-    const long seed = f.integer("seed", s.seed);
-    if (seed < 0 || seed > 4294967295L) f["seed"].fail("must be in [0, 2^32)");
-    s.seed = static_cast<std::uint32_t>(seed);
-    s.acceleration = f.choice("acceleration", s.acceleration);
-    if (stage) return s;
-    s.local_solver_3d = f.choice("local_solver", LocalSolver3d::AlartCurnier);
-    const long parallel_rows = f.integer("parallel_rows", s.parallel_rows);
-    if (parallel_rows < 1 || parallel_rows > 1000000000L)
-      f["parallel_rows"].fail("must be in [1, 10^9]");
-    s.parallel_rows = static_cast<int>(parallel_rows);
-    return s;
-  }
-
-  void parseScheme(const YamlField& f) {
-    f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates",
-                 "open_contacts", "coulomb", "normal_stage", "friction_stage", "screening",
-                 "screening_rounds", "screening_gap", "threads"});
-    SchemeSettings& s = out_.run.scheme;
-    if (f.has("name")) s.scheme = f.choice("name", s.scheme);
-    s.normal_law = f.choice("normal_law", NormalLaw::Vel);
-    s.friction.tangents = f.choice("tangents", TangentMode::Global);
-    const long updates = f.integer("threshold_updates", s.friction.threshold_updates);
-    if (updates < 0 || updates > 100) f["threshold_updates"].fail("must be in [0, 100]");
-    s.friction.threshold_updates = static_cast<int>(updates);
-    s.friction.threshold = f.choice("threshold", FrictionThreshold::Physical);
-    s.friction.open_contacts = f.choice("open_contacts", OpenContacts::Unilateral);
-    s.screening = f.boolean("screening", s.screening);
-    const long rounds = f.integer("screening_rounds", s.screening_rounds);
-    if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
-    s.screening_rounds = static_cast<int>(rounds);
-    if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
-    const long threads = f.integer("threads", s.threads);
-    if (threads < 0 || threads > 1024) f["threads"].fail("must be in [0, 1024] (0: every core)");
-    s.threads = static_cast<int>(threads);
-    if (f.has("coulomb")) s.coulomb = parseSolver(f["coulomb"], s.coulomb, false);
-    if (f.has("normal_stage"))
-      s.normal_stage = parseSolver(f["normal_stage"], s.normal_stage, true);
-    if (f.has("friction_stage"))
-      s.friction_stage = parseSolver(f["friction_stage"], s.friction_stage, true);
-  }
-
-  void parseTime(const YamlField& f) {
-    f.allowOnly({"step", "end"});
-    out_.run.scheme.h = f.positive("step", out_.run.scheme.h);
-    out_.run.t_end = f.positive("end", out_.run.t_end);
-  }
-
-  void parseOutput(const YamlField& f) {
-    f.allowOnly({"stats", "timings", "vtk_every", "vtk_interval", "layer"});
-    OutputSettings& o = out_.run.output;
-    if (f.has("layer")) {
-      const YamlField l = f["layer"];
-      // the metrics are of spheres over a plate, across a width along z: a 2D scene has none
-      if (out_.spec.dimension == 2)
-        l.fail("measures a 3D powder layer (spheres over a plate); a 2D scene has none");
-      l.allowOnly({"x_min", "x_max", "z_min", "z_max", "plate", "gap", "cell", "resolution"});
-      LayerWindow w = powder_layer_ ? *powder_layer_ : LayerWindow{};
-      w.x_min = l.number("x_min", w.x_min);
-      w.x_max = l.number("x_max", w.x_max);
-      w.z_min = l.number("z_min", w.z_min);
-      w.z_max = l.number("z_max", w.z_max);
-      w.plate = l.number("plate", w.plate);
-      w.gap = l.number("gap", w.gap);
-      w.cell = l.number("cell", w.cell);
-      w.resolution = l.number("resolution", w.resolution);
-      try {
-        w.validate(l.path());
-      } catch (const InputError& e) {
-        throw InputError(path_ + ": " + e.what());
-      }
-      o.layer = w;
-    }
-    o.stats = f.boolean("stats", o.stats);
-    o.timings = f.boolean("timings", o.timings);
-    o.vtk_every = f.integer("vtk_every", o.vtk_every);
-    if (o.vtk_every < 0) f["vtk_every"].fail("must be >= 0");
-    o.vtk_interval = f.nonNegative("vtk_interval", o.vtk_interval);
-  }
-
-  void checkNames(const YamlField& root) {
-    std::set<std::string> seen;
-    const auto& bodies = out_.spec.bodies;
-    for (std::size_t i = 0; i < bodies.size(); ++i) {
-      if (seen.insert(bodies[i].name).second) continue;
-      if (i >= explicit_from_)
-        root["bodies"].at(i - explicit_from_)["name"].fail("another body has this name");
-      root["generators"].fail("two generated bodies are named '" + bodies[i].name + "'");
-    }
-  }
-
-  // Resident memory per body, measured through one step of 10^5 and 4 x 10^5 generated disks
-  // and spheres (3.8 to 4.6 kB); 5 kB keeps a margin. Checked before a generator allocates.
-  static constexpr double kBytesPerBody = 5000.0;
-
-  void planBodies(const YamlField& field, long count) {
-    planned_bodies_ += static_cast<double>(count);
-    if (planned_bodies_ > static_cast<double>(kMaxGeneratorCount))
-      field.fail("brings the scene to " + std::to_string(static_cast<long>(planned_bodies_)) +
-                 " generated bodies, more than " + countLimit());
-    requireMemory(planned_bodies_ * kBytesPerBody,
-                  path_ + ": " + field.path() + " = " + std::to_string(count) + " (" +
-                      std::to_string(static_cast<long>(planned_bodies_)) +
-                      " bodies in the scene so far)");
-  }
-
-  std::string countLimit() const {
-    return max_count_ == 10000000 ? "10^7" : std::to_string(max_count_);
-  }
-
-  const std::string& path_;
-  SceneFile& out_;
-  const long max_count_;                     // bodies per generator
-  double planned_bodies_ = 0.0;              // generated so far, for the memory estimate
-  std::optional<LayerWindow> powder_layer_;  // the powder_bed generator's default window
-  // spec.bodies from here on are the file's bodies list
-  std::size_t explicit_from_ = std::numeric_limits<std::size_t>::max();
-};
-
 }  // namespace
+
+void SceneParser::parse(const YamlField& root) {
+  root.requireMap();
+  root.allowOnly({"dimension", "gravity", "materials", "contact", "bodies", "generators", "urdf",
+                  "loads", "detection", "scheme", "time", "output"});
+  SceneSpec& spec = out_.spec;
+  spec.source = path_;
+  if (!root.has("dimension")) root["dimension"].fail("is required (2 or 3)");
+  const long dimension = root["dimension"].integer();
+  if (dimension != 2 && dimension != 3) root["dimension"].fail("must be 2 or 3");
+  spec.dimension = static_cast<int>(dimension);
+  spec.gravity = spec.dimension == 2 ? Vector3(0, -9.81, 0) : Vector3(0, 0, -9.81);
+  if (root.has("gravity")) spec.gravity = root["gravity"].vector(spec.dimension);
+  if (root.has("materials")) parseMaterials(root["materials"]);
+  if (root.has("generators")) parseGenerators(root["generators"]);
+  if (root.has("contact")) parseContact(root["contact"]);
+  if (root.has("bodies")) {
+    const YamlField bodies = root["bodies"];
+    bodies.requireSequence();
+    explicit_from_ = spec.bodies.size();
+    for (std::size_t i = 0; i < bodies.size(); ++i) spec.bodies.push_back(parseBody(bodies.at(i)));
+  }
+  if (root.has("urdf")) parseUrdfs(root["urdf"]);
+  if (root.has("loads")) parseLoads(root["loads"]);
+  if (root.has("detection")) parseDetection(root["detection"]);
+  if (root.has("scheme")) parseScheme(root["scheme"]);
+  if (root.has("time")) parseTime(root["time"]);
+  if (root.has("output")) parseOutput(root["output"]);
+  try {  // the run's step count, as `run` will count it
+    stepCount(0.0, out_.run.t_end, out_.run.scheme.h);
+  } catch (const InputError& e) {
+    throw InputError(path_ + ": " + e.what());
+  }
+  // a powder bed is judged by its layer unless the file says how
+  if (powder_layer_ && !out_.run.output.layer) out_.run.output.layer = powder_layer_;
+  checkNames(root);
+}
+
+void SceneParser::parseMaterials(const YamlField& materials) {
+  for (const std::string& name : materials.keys()) {
+    const YamlField m = materials[name];
+    if (!m.isMap() && !m.isNull()) m.fail("must be a map such as {density: 7800}");
+    MaterialSpec spec{name, 0.0};
+    if (m.isMap()) {
+      m.allowOnly({"density"});
+      spec.density = m.positive("density", 0.0);
+    }
+    addMaterial(spec, m);
+  }
+}
+
+void SceneParser::addMaterial(const MaterialSpec& material, const YamlField& where) {
+  for (const MaterialSpec& m : out_.spec.materials)
+    if (m.name == material.name) where.fail("material '" + material.name + "' is defined twice");
+  out_.spec.materials.push_back(material);
+}
+
+ContactLaw SceneParser::parseLaw(const YamlField& f, const ContactLaw& fallback) {
+  ContactLaw law = fallback;
+  law.friction = f.nonNegative("friction", law.friction);
+  if (f.has("restitution")) {
+    law.restitution = f["restitution"].number();
+    if (!(law.restitution >= 0.0 && law.restitution <= 1.0))
+      f["restitution"].fail("must be in [0, 1]");
+  }
+  law.rolling = f.nonNegative("rolling_resistance", law.rolling);
+  return law;
+}
+
+void SceneParser::parseContact(const YamlField& contact) {
+  contact.allowOnly({"friction", "restitution", "rolling_resistance", "pairs"});
+  out_.spec.default_law = parseLaw(contact, out_.spec.default_law);
+  if (!contact.has("pairs")) return;
+  const YamlField pairs = contact["pairs"];
+  pairs.requireSequence();
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const YamlField p = pairs.at(i);
+    p.allowOnly({"materials", "friction", "restitution", "rolling_resistance"});
+    const YamlField names = p["materials"];
+    if (!names.isSequence() || names.size() != 2) names.fail("must name two materials");
+    ContactLawSpec law{names.at(0).text(), names.at(1).text(), parseLaw(p, out_.spec.default_law)};
+    for (std::size_t k = 0; k < 2; ++k) requireMaterial(names.at(k), names.at(k).text());
+    // a second law for the same pair (in either order) would silently replace the first
+    for (std::size_t j = 0; j < i; ++j) {
+      const YamlField other = pairs.at(j)["materials"];
+      const std::string a = other.at(0).text(), b = other.at(1).text();
+      if ((a == law.material_a && b == law.material_b) ||
+          (a == law.material_b && b == law.material_a))
+        names.fail("this pair already has a law at " + pairs.path() + "[" + std::to_string(j) +
+                   "]");
+    }
+    out_.spec.laws.push_back(law);
+  }
+}
+
+void SceneParser::requireMaterial(const YamlField& where, const std::string& name) {
+  for (const MaterialSpec& m : out_.spec.materials)
+    if (m.name == name) return;
+  where.fail("no such material (define it under materials)");
+}
+
+// a mesh's file and scale are kept in `spec` for export
+Shape SceneParser::parseShape(const YamlField& body, const std::string& type, BodySpec& spec) {
+  auto point2 = [&](const char* key) {
+    const Vector3 v = body[key].vector(2);
+    return Vector2(v.x(), v.y());
+  };
+  if (type == "disk") return Shape::disk(body["radius"].positive());
+  if (type == "segment") {
+    return Shape::segment(point2("start"), point2("end"), body.nonNegative("radius", 0.0));
+  }
+  if (type == "polygon") {
+    const YamlField vertices = body["vertices"];
+    vertices.requireSequence();
+    std::vector<Vector2> points;
+    for (std::size_t k = 0; k < vertices.size(); ++k) {
+      const Vector3 v = vertices.at(k).vector(2);
+      points.emplace_back(v.x(), v.y());
+    }
+    return Shape::polygon(points);
+  }
+  if (type == "half_plane") return Shape::halfPlane();
+  if (type == "sphere") return Shape::sphere(body["radius"].positive());
+  if (type == "box") {
+    const Vector3 size = body["size"].vector(3);
+    for (int k = 0; k < 3; ++k)
+      if (!(size[k] > 0.0)) body["size"].at(k).fail("must be > 0");
+    return Shape::box(size);
+  }
+  if (type == "cylinder")
+    return Shape::cylinder(body["radius"].positive(), body["length"].positive());
+  if (type == "capsule")
+    return Shape::capsule(body["radius"].positive(), body["length"].positive());
+  if (type == "plane") return Shape::halfSpace();
+  if (type == "mesh") {
+    Vector3 scale = Vector3::Ones();
+    if (body.has("scale")) {
+      scale = body["scale"].isSequence() ? body["scale"].vector(3)
+                                         : Vector3::Constant(body["scale"].positive());
+      for (int k = 0; k < 3; ++k)
+        if (!(scale[k] > 0.0)) body["scale"].at(k).fail("must be > 0");
+    }
+    const std::string file = resolve(path_, body["file"].text());
+    std::error_code error;
+    if (fs::is_directory(file, error)) body["file"].fail("is a folder, not a mesh file");
+    if (!fs::is_regular_file(file, error)) body["file"].fail("no such file (" + file + ")");
+    spec.mesh_file = file;
+    spec.mesh_scale = scale;
+    std::shared_ptr<TriangleMesh> mesh;
+    try {
+      mesh = loadTriangleMesh(file, scale);
+    } catch (const InputError& e) {
+      throw InputError(path_ + ": " + body["file"].path() + ": " + e.what());
+    }
+    return body.boolean("convex", false) ? Shape::convexMesh(mesh) : Shape::triangleMesh(mesh);
+  }
+  body["shape"].fail(
+      "must be one of disk, segment, polygon, half_plane (2D) or sphere, box, cylinder, "
+      "capsule, mesh, plane (3D)");
+}
+
+BodySpec SceneParser::parseBody(const YamlField& f) {
+  f.allowOnly({"name",
+               "shape",
+               "radius",
+               "start",
+               "end",
+               "vertices",
+               "size",
+               "length",
+               "file",
+               "scale",
+               "convex",
+               "normal",
+               "position",
+               "angle",
+               "rpy",
+               "velocity",
+               "angular_velocity",
+               "material",
+               "mass",
+               "inertia",
+               "fixed",
+               "motion"});
+  const int dim = out_.spec.dimension;
+  BodySpec b;
+  b.name = f.text("name", "body" + std::to_string(out_.spec.bodies.size()));
+  if (!f.has("shape")) f["shape"].fail("is required");
+  const std::string type = f["shape"].text();
+  const bool planar_type =
+      type == "disk" || type == "segment" || type == "polygon" || type == "half_plane";
+  const bool known = planar_type || type == "sphere" || type == "box" || type == "cylinder" ||
+                     type == "capsule" || type == "mesh" || type == "plane";
+  if (known && planar_type != (dim == 2))
+    f["shape"].fail(std::string("is not a shape of a ") + (dim == 2 ? "2D" : "3D") + " scene");
+  b.shape = parseShape(f, type, b);
+  if (f.has("material")) {
+    b.material = f["material"].text();
+    requireMaterial(f["material"], b.material);
+  }
+  if (f.has("position")) b.pose.translation = f["position"].vector(dim);
+  if (dim == 2 && f.has("angle")) {
+    b.written_angle = f["angle"].number();
+    b.pose.rotation = Eigen::AngleAxisd(*b.written_angle, Vector3::UnitZ()).toRotationMatrix();
+  }
+  if (dim == 2 && f.has("rpy")) f["rpy"].fail("is for 3D scenes; use angle");
+  if (dim == 3 && f.has("rpy")) {
+    b.written_rpy = f["rpy"].vector(3);
+    b.pose.rotation = rotationFromRpy(*b.written_rpy);
+  }
+  if (dim == 3 && f.has("angle")) f["angle"].fail("is for 2D scenes; use rpy");
+  if (isUnbounded(b.shape)) {
+    if (!f.has("normal")) f["normal"].fail("is required for a " + type);
+    const Vector3 given = f["normal"].vector(dim);
+    b.written_normal = given;
+    const double largest = given.cwiseAbs().maxCoeff();
+    if (!(largest > 0.0)) f["normal"].fail("must not be zero");
+    // scaled before its norm is taken: the squares of 1e200 or 1e-200 overflow or vanish
+    const Vector3 n = given / largest;
+    b.pose.rotation = rotationWithNormal(n, dim);
+  } else if (f.has("normal")) {
+    f["normal"].fail("only half-planes and planes take a normal");
+  }
+
+  const bool fixed = f.boolean("fixed", false);
+  if (fixed && f.has("motion")) f["motion"].fail("a fixed body cannot also move");
+  b.kind = fixed ? BodySpec::Kind::Fixed
+                 : (f.has("motion") ? BodySpec::Kind::Driven : BodySpec::Kind::Dynamic);
+  if (isUnbounded(b.shape) && b.kind == BodySpec::Kind::Dynamic)
+    f["shape"].fail("a " + type + " cannot be dynamic; add fixed: true");
+  if (b.kind != BodySpec::Kind::Dynamic)
+    for (const char* key : {"velocity", "angular_velocity", "mass", "inertia"})
+      if (f.has(key)) f[key].fail("only dynamic bodies take it");
+
+  if (f.has("velocity")) b.velocity = f["velocity"].vector(dim);
+  if (f.has("angular_velocity")) {
+    if (dim == 2)
+      b.angular_velocity = Vector3(0, 0, f["angular_velocity"].number());
+    else
+      b.angular_velocity = f["angular_velocity"].vector(3);
+  }
+  if (f.has("mass")) b.mass = f["mass"].positive();
+  if (f.has("inertia")) {
+    const YamlField in = f["inertia"];
+    Vector3 moments;
+    if (dim == 2) {
+      const double izz = in.positive();
+      moments = Vector3(0.5 * izz, 0.5 * izz, izz);
+    } else {
+      moments = in.vector(3);
+      for (int k = 0; k < 3; ++k)
+        if (!(moments[k] > 0.0)) in.at(k).fail("must be > 0");
+    }
+    if (!b.mass) in.fail("needs a mass beside it");
+    b.principal_inertia = moments;
+  }
+  if (b.kind == BodySpec::Kind::Dynamic && !b.mass && b.material.empty())
+    f.fail("a dynamic body needs a material with a density, or a mass");
+  if (b.kind == BodySpec::Kind::Dynamic && !b.mass) {
+    for (const MaterialSpec& m : out_.spec.materials)
+      if (m.name == b.material && !(m.density > 0.0))
+        f["material"].fail("material '" + m.name + "' has no density; give the body a mass");
+  }
+  if (b.kind == BodySpec::Kind::Driven) b.motion = parseMotion(f["motion"]);
+  return b;
+}
+
+MotionSpec SceneParser::parseMotion(const YamlField& f) {
+  f.allowOnly({"type", "velocity", "angular_velocity", "times", "positions", "remove_at"});
+  const int dim = out_.spec.dimension;
+  MotionSpec m;
+  const std::string type = f.text("type", "fixed");
+  if (type == "fixed") {
+    m.kind = MotionSpec::Kind::Fixed;
+  } else if (type == "velocity") {
+    m.kind = MotionSpec::Kind::Velocity;
+    if (f.has("velocity")) m.linear_velocity = f["velocity"].vector(dim);
+    if (f.has("angular_velocity"))
+      m.angular_velocity = dim == 2 ? Vector3(0, 0, f["angular_velocity"].number())
+                                    : f["angular_velocity"].vector(3);
+  } else if (type == "keyframes") {
+    m.kind = MotionSpec::Kind::Keyframes;
+    m.times = f["times"].numbers();
+    const YamlField positions = f["positions"];
+    positions.requireSequence();
+    if (positions.size() != m.times.size() || m.times.empty())
+      positions.fail("must hold one position per time");
+    for (std::size_t k = 0; k < positions.size(); ++k) {
+      m.positions.push_back(positions.at(k).vector(dim));
+      if (k > 0 && !(m.times[k] > m.times[k - 1])) f["times"].at(k).fail("times must increase");
+    }
+  } else {
+    f["type"].fail("must be fixed, velocity or keyframes");
+  }
+  if (type != "velocity")
+    for (const char* key : {"velocity", "angular_velocity"})
+      if (f.has(key)) f[key].fail("only a velocity motion takes it");
+  if (type != "keyframes")
+    for (const char* key : {"times", "positions"})
+      if (f.has(key)) f[key].fail("only a keyframes motion takes it");
+  if (f.has("remove_at")) m.removal_time = f["remove_at"].number();
+  return m;
+}
+
+void SceneParser::parseUrdfs(const YamlField& list) {
+  list.requireSequence();
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YamlField f = list.at(i);
+    f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
+                 "material", "link_materials", "joint_springs", "package_paths", "missing_meshes",
+                 "actuators"});
+    UrdfSpec u;
+    if (f.has("package_paths")) {
+      const YamlField paths = f["package_paths"];
+      paths.requireSequence();
+      for (std::size_t k = 0; k < paths.size(); ++k) {
+        const std::string folder = resolve(path_, paths.at(k).text());
+        std::error_code error;
+        if (!fs::is_directory(folder, error)) paths.at(k).fail("is not a folder (" + folder + ")");
+        u.package_paths.push_back(folder);
+      }
+    }
+    u.missing_meshes = f.choice("missing_meshes", MissingMeshes::Refuse);
+    u.file = resolve(path_, f["file"].text());
+    if (!fs::is_regular_file(u.file)) f["file"].fail("no such file (" + u.file + ")");
+    u.prefix = f.text("prefix", "");
+    u.floating_base = f.boolean("floating", false);
+    if (f.has("position")) u.base.translation = f["position"].vector(3);
+    if (f.has("rpy")) {
+      u.written_rpy = f["rpy"].vector(3);
+      u.base.rotation = rotationFromRpy(*u.written_rpy);
+    }
+    auto joints = [&](const char* key, std::vector<std::pair<std::string, double>>& out) {
+      if (!f.has(key)) return;
+      for (const std::string& name : f[key].keys()) out.emplace_back(name, f[key][name].number());
+    };
+    joints("joints", u.joint_positions);
+    joints("velocities", u.joint_velocities);
+    if (f.has("material")) {
+      u.material = f["material"].text();
+      requireMaterial(f["material"], u.material);
+    }
+    if (f.has("link_materials")) {
+      const YamlField links = f["link_materials"];
+      links.requireMap();
+      for (const std::string& link : links.keys()) {
+        const std::string material = links[link].text();
+        requireMaterial(links[link], material);
+        u.link_materials.emplace_back(link, material);
+      }
+    }
+    if (f.has("joint_springs")) {
+      const YamlField springs = f["joint_springs"];
+      springs.requireMap();
+      for (const std::string& joint : springs.keys()) {
+        const YamlField spring = springs[joint];
+        spring.requireMap();
+        spring.allowOnly({"stiffness", "rest"});
+        if (!spring.has("stiffness")) spring["stiffness"].fail("is required");
+        u.joint_springs.push_back(
+            {joint, spring.nonNegative("stiffness", 0.0), spring.number("rest", 0.0)});
+      }
+    }
+    if (f.has("actuators")) parseActuators(f["actuators"], u);
+    out_.spec.urdfs.push_back(u);
+  }
+}
+
+// a value (a constant) or {times: [...], values: [...]}, linear between the times
+TimeTable SceneParser::timeTable(const YamlField& f) {
+  if (!f.isMap()) return TimeTable::constant(f.number());
+  f.allowOnly({"times", "values"});
+  TimeTable table{f["times"].numbers(), f["values"].numbers()};
+  if (table.values.empty()) f["values"].fail("must hold at least one value");
+  try {
+    checkTimeTable(table, f.path());
+  } catch (const InputError& error) {
+    throw InputError(f.file() + ": " + error.what());
+  }
+  return table;
+}
+
+// urdf[].actuators: {JOINT: {torque, kp, kd, position, velocity, max_torque}}
+void SceneParser::parseActuators(const YamlField& map, UrdfSpec& u) {
+  map.requireMap();
+  for (const std::string& joint : map.keys()) {
+    const YamlField f = map[joint];
+    f.requireMap();
+    f.allowOnly({"torque", "kp", "kd", "position", "velocity", "max_torque", "prescribed"});
+    UrdfSpec::Actuator a;
+    a.drive.joint = joint;
+    if (f.has("torque")) a.drive.torque = timeTable(f["torque"]);
+    a.drive.kp = f.nonNegative("kp", 0.0);
+    a.drive.kd = f.nonNegative("kd", 0.0);
+    if (f.has("position")) a.drive.position = timeTable(f["position"]);
+    if (f.has("velocity")) a.drive.velocity = timeTable(f["velocity"]);
+    if (f.has("prescribed")) {
+      for (const char* other : {"torque", "kp", "kd", "position", "velocity"})
+        if (f.has(other))
+          f[other].fail("a prescribed joint follows its motion exactly: give prescribed alone");
+      a.drive.prescribed = true;
+      a.drive.position = timeTable(f["prescribed"]);
+    }
+    a.max_torque_given = f.has("max_torque");
+    if (a.max_torque_given) a.drive.max_torque = f["max_torque"].positive();
+    if (a.drive.kp > 0.0 && a.drive.position.empty())
+      f["kp"].fail("needs a target: give position (a value or {times, values})");
+    if (!a.drive.prescribed && a.drive.torque.empty() && !a.drive.servo())
+      f.fail(
+          "has neither a torque nor servo gains (kp, kd); a motor commanded from Python "
+          "starts from torque: 0");
+    u.actuators.push_back(a);
+  }
+}
+
+// loads: a force and a torque on a dynamic body, each a constant plus a rate (a ramp)
+void SceneParser::parseLoads(const YamlField& list) {
+  list.requireSequence();
+  const int dim = out_.spec.dimension;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YamlField f = list.at(i);
+    f.allowOnly({"body", "force", "force_rate", "torque", "torque_rate"});
+    LoadSpec load;
+    load.body = f["body"].text();
+    bool found = false;
+    for (const BodySpec& b : out_.spec.bodies)
+      found = found || (b.name == load.body && b.kind == BodySpec::Kind::Dynamic);
+    if (!found) f["body"].fail("no dynamic body of this name under bodies");
+    if (f.has("force")) load.force = f["force"].vector(dim);
+    if (f.has("force_rate")) load.force_rate = f["force_rate"].vector(dim);
+    auto torque = [&](const char* key, Vector3& out) {
+      if (!f.has(key)) return;
+      out = dim == 2 ? Vector3(0, 0, f[key].number()) : f[key].vector(3);
+    };
+    torque("torque", load.torque);
+    torque("torque_rate", load.torque_rate);
+    out_.spec.loads.push_back(load);
+  }
+}
+
+void SceneParser::checkNames(const YamlField& root) {
+  std::set<std::string> seen;
+  const auto& bodies = out_.spec.bodies;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    if (seen.insert(bodies[i].name).second) continue;
+    if (i >= explicit_from_)
+      root["bodies"].at(i - explicit_from_)["name"].fail("another body has this name");
+    root["generators"].fail("two generated bodies are named '" + bodies[i].name + "'");
+  }
+}
 
 namespace {
 // A parsed document with the settings files' entries and then the overrides applied, parsed
