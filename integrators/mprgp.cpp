@@ -291,6 +291,14 @@ double naturalResidual(const SeparableSet& s, const std::vector<double>& x,
 }
 
 namespace {
+// A d: z = M^-1 H E d (z's slot overwritten), then Ad = E^T H^T z; one product counted
+void linearProduct(const QpOperator& op, const std::vector<double>& d, VectorX& z,
+                   std::vector<double>& Ad, MprgpStats& stats) {
+  op.toVelocity(d, z);
+  op.toGradient(z, false, Ad);
+  ++stats.products;
+}
+
 // Both solvers' start: the workspace sized, the warm start x projected onto the set and
 // applied to v, and the gradient at it in ws.g (one product).
 void start(const QpOperator& op, const SeparableSet& set, std::vector<double>& x, VectorX& v,
@@ -331,9 +339,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       project(set, ws.x_trial, loops.threads);
       // dx, in x_trial's slot until x_trial is rebuilt as from + dx
       loops.each(n, [&](int i) { ws.x_trial[i] -= from[i]; });
-      op.toVelocity(ws.x_trial, ws.z_trial);
-      op.toGradient(ws.z_trial, false, ws.g_trial);
-      ++stats.products;
+      linearProduct(op, ws.x_trial, ws.z_trial, ws.g_trial, stats);
       const ChunkSums change = loops.sum(n, [&](int i, ChunkSums& part) {
         part[0] += g_from[i] * ws.x_trial[i];
         part[1] += ws.x_trial[i] * ws.g_trial[i];
@@ -367,9 +373,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
     if (it == settings.max_iterations) break;
     stats.iterations = it + 1;
     if (at.beta2 <= gamma2 * at.phi2) {
-      op.toVelocity(p, ws.z);
-      op.toGradient(ws.z, false, Ap);
-      ++stats.products;
+      linearProduct(op, p, ws.z, Ap, stats);
       const double pAp = loops.dot(p, Ap), pp = loops.dot(p, p);
       if (pp > 0.0 && pAp > 0.0 && pAp > rayleigh * pp) {
         rayleigh = pAp / pp;
@@ -414,9 +418,7 @@ MprgpStats solveMprgp(const QpOperator& op, const SeparableSet& set, const Mprgp
       ++stats.expansions;
     } else {
       // proportioning: exact line search along -beta, projected
-      op.toVelocity(beta, ws.z);
-      op.toGradient(ws.z, false, Ap);
-      ++stats.products;
+      linearProduct(op, beta, ws.z, Ap, stats);
       const double bAb = loops.dot(beta, Ap);
       const double step = bAb > kFlat * rayleigh * at.beta2 ? loops.dot(g, beta) / bAb : alpha_bar;
       ws.x_half = x;
@@ -458,9 +460,7 @@ MprgpStats solveApgd(const QpOperator& op, const SeparableSet& set, const MprgpS
       loops.each(n, [&](int i) { d[i] = y[i] - g_y[i] / L; });
       project(set, d, loops.threads);
       loops.each(n, [&](int i) { d[i] -= y[i]; });
-      op.toVelocity(d, ws.z);
-      op.toGradient(ws.z, false, Ad);
-      ++stats.products;
+      linearProduct(op, d, ws.z, Ad, stats);
       const ChunkSums curvature = loops.sum(n, [&](int i, ChunkSums& part) {
         part[0] += d[i] * Ad[i];
         part[1] += d[i] * d[i];
