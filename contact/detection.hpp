@@ -35,6 +35,9 @@ struct ContactData {
   std::vector<Pose> geometry_pose;  // world pose of each geometry
   std::vector<Contact> contacts;    // sorted by key
   std::vector<Contact> previous;    // the contacts of the previous detection
+  // Per contact, set by the stepper after detection (empty elsewhere): whether it carried a
+  // normal impulse at the last step. VEL keeps such a contact closed up to heldGap.
+  std::vector<char> held;
   ContactJacobian jacobian;
   DetectionStats stats;
 

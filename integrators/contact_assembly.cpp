@@ -149,7 +149,6 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
 }
 
 void ProblemAssembly::classifyContacts(const std::vector<char>* deferred, int threads) {
-  const double touching = touchingGap(cmodel);
   const bool body_form = p.pack_body_form && p.dimension == 3;
   const bool compact_spheres = body_form && p.compact_spheres;
   const int m = static_cast<int>(cdata.contacts.size());
@@ -160,7 +159,7 @@ void ProblemAssembly::classifyContacts(const std::vector<char>* deferred, int th
     char kind = kNoRow;
     int minv_entries = 0;
     // index set: VEL takes closed contacts only; the gap-aware laws take every candidate
-    if ((law == NormalLaw::Vel && contact.gap > touching) ||
+    if ((law == NormalLaw::Vel && !closedForVel(cmodel, cdata, c)) ||
         (deferred != nullptr && (*deferred)[c])) {
     } else if (body_form && rowInBodyForm(model, data, cmodel, contact, ws)) {
       kind = compact_spheres && sphereRowFits(contact, ws) ? kSphereRow : kBodyFormRow;

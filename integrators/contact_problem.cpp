@@ -239,6 +239,15 @@ double touchingGap(const ContactModel& cmodel) {
   return 1e-9 * cmodel.margin_floor;
 }
 
+double heldGap(const ContactModel& cmodel) {
+  return 1e-6 * cmodel.margin_floor;
+}
+
+bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id) {
+  const bool held = id < static_cast<int>(cdata.held.size()) && cdata.held[id];
+  return cdata.contacts[id].gap <= (held ? heldGap(cmodel) : touchingGap(cmodel));
+}
+
 double normalBias(NormalLaw law, double restitution, double u_start, double gap, double tau) {
   double bias = restitution * u_start;
   if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;

@@ -461,6 +461,15 @@ void findFreeParticles(const Model& model, const Data& data, const ContactModel&
 // index set at random and the block would rock. Gaps up to this (1e-9 of the margin floor,
 // 1e-12 of the smallest shape size) count as closed for the VEL law.
 double touchingGap(const ContactModel& cmodel);
+// A contact that carried a normal impulse at the last step stays closed for VEL up to this gap
+// (1e-6 of the margin floor, 1e-9 of the smallest shape size): a solve stopped at its
+// tolerance leaves a resting corner's gap at about +1e-12 m (a solve to 1e-6 leaves the
+// velocities 1e-9 m/s off), and a corner dropped from the index set lets the body fall through
+// it for a step (h^2 g). Contacts that did not push keep touchingGap: their impacts come at the
+// same step as without it.
+double heldGap(const ContactModel& cmodel);
+// Whether VEL's index set takes detected contact `id` (cdata.held read where it is sized).
+bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id);
 
 // Builds the problem from cdata.contacts/jacobian (assembled at q_m and time t) and the
 // factored mass blocks of data (at q_m); rows in body form (rowInBodyForm) from the contacts

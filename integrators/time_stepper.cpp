@@ -260,6 +260,14 @@ void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   detectContacts(m.model, d.model_data, m.cmodel, d.contact_data, t_m, margins, m.threads);
   std::swap(d.impulse, d.previous_impulse);
   d.impulse.assign(d.contact_data.contacts.size(), Vector3::Zero());
+  const int contacts = static_cast<int>(d.contact_data.contacts.size());
+  d.contact_data.held.resize(contacts);
+  forEachIndex(contacts, m.threads, [&](int id) {
+    const int previous = d.contact_data.contacts[id].previous;
+    d.contact_data.held[id] = previous >= 0 &&
+                              previous < static_cast<int>(d.previous_impulse.size()) &&
+                              d.previous_impulse[previous].x() > 0.0;
+  });
   std::swap(d.staged, d.previous_staged);
   d.staged.assign(d.contact_data.contacts.size(), StagedImpulse{});
   if (m.cmodel.rolling) {
@@ -355,9 +363,8 @@ void assembleJacobian(const StepModel& m, StepData& d) {
   const auto start = Clock::now();
   // forwardDynamics left the kinematics of data at q_m
   // VEL solves closed contacts only: the open candidates need no rows
-  const double max_gap = m.settings.normal_law == NormalLaw::Vel
-                             ? touchingGap(m.cmodel)
-                             : std::numeric_limits<double>::infinity();
+  const bool vel = m.settings.normal_law == NormalLaw::Vel;
+  const double max_gap = vel ? heldGap(m.cmodel) : std::numeric_limits<double>::infinity();
   // rows the problem writes in body form from the contacts need no Jacobian rows: free
   // particles, the bulk of a granular step (contact_problem.hpp, rowInBodyForm)
   const int contacts = static_cast<int>(d.contact_data.contacts.size());
@@ -366,6 +373,7 @@ void assembleJacobian(const StepModel& m, StepData& d) {
   const int threads = m.threads;
   forEachIndex(contacts, threads, [&](int id) {
     d.jacobian_skip[id] =
+        (vel && !closedForVel(m.cmodel, d.contact_data, id)) ||
         (!d.unassembled.empty() && d.unassembled[id]) ||
         (d.problem.pack_body_form &&
          rowInBodyForm(m.model, d.model_data, m.cmodel, d.contact_data.contacts[id], d.problem_ws));
@@ -395,7 +403,6 @@ void assemble(const StepModel& m, StepData& d) {
   // of two (docs/powder_bed.md).
   const int contacts = static_cast<int>(d.contact_data.contacts.size());
   const double tau = 0.5 * m.settings.h, slack = m.cmodel.margin_floor;
-  const double touching = touchingGap(m.cmodel);
   const double factor = m.cmodel.settings.speed_factor;
   const double near =
       m.settings.screening_gap >= 0.0 ? m.settings.screening_gap : 200.0 * m.cmodel.margin_floor;
@@ -411,11 +418,6 @@ void assemble(const StepModel& m, StepData& d) {
   rootBodyTwists(m.model, d.model_data, d.v, d.start_twist, threads);
   rootBodyTwists(m.model, d.model_data, d.v_free, d.free_twist, threads);
   rootBodyTwists(m.model, d.model_data, d.v_predicted, d.end_twist, threads);
-  auto carriedImpulse = [&](const Contact& contact) {
-    const int previous = contact.previous;
-    return previous >= 0 && previous < static_cast<int>(d.previous_impulse.size()) &&
-           d.previous_impulse[previous].x() > 0.0;
-  };
   auto leaveOut = [&](const Contact& contact, double u_start, double u_free, double u_pushed,
                       double& bias) {
     bias = normalBias(m.settings.normal_law, contact.restitution, u_start, contact.gap, tau);
@@ -423,7 +425,7 @@ void assemble(const StepModel& m, StepData& d) {
   };
   forEachIndex(contacts, threads, [&](int id) {
     const Contact& contact = d.contact_data.contacts[id];
-    if (m.settings.normal_law == NormalLaw::Vel || contact.gap <= near || carriedImpulse(contact))
+    if (m.settings.normal_law == NormalLaw::Vel || contact.gap <= near || d.contact_data.held[id])
       return;
     std::array<double, 3> u;  // at the start, contact-free, contact-free plus the last push
     if (!normalVelocitiesFromTwists<3>(m.model, d.model_data, contact,
@@ -439,8 +441,9 @@ void assemble(const StepModel& m, StepData& d) {
   forEachIndex(contacts, threads, [&](int id) {
     const Contact& contact = d.contact_data.contacts[id];
     if (betweenRoots(m.model, contact)) return;
-    if (m.settings.normal_law == NormalLaw::Vel && contact.gap > touching) return;
-    if (contact.gap <= near || carriedImpulse(contact)) return;
+    if (m.settings.normal_law == NormalLaw::Vel && !closedForVel(m.cmodel, d.contact_data, id))
+      return;
+    if (contact.gap <= near || d.contact_data.held[id]) return;
     d.deferred[id] =
         leaveOut(contact, J.relativeVelocity(id, d.v).x(), J.relativeVelocity(id, d.v_free).x(),
                  J.relativeVelocity(id, d.v_predicted).x(), d.screening_bias[id]);

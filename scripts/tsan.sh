@@ -28,8 +28,9 @@ export OMP_WAIT_POLICY=passive
 export TSAN_OPTIONS="halt_on_error=1 ignore_noninstrumented_modules=1"
 # the threads of the uninstrumented BLAS under CHOLMOD are not Sweep's: one is enough here
 export OPENBLAS_NUM_THREADS=1
-# the threads test compares 2 and 4 threads here: a race needs two, and the 1-thread runs, as
-# costly under ThreadSanitizer, are compared in the normal suite
+# the threads tests (the app's and the solvers' same-bits tests) compare 2 and 4 threads here: a
+# race needs two, and the 1-thread runs, as costly under ThreadSanitizer, are compared in the
+# normal suite
 export SWEEP_TEST_THREAD_COUNTS=2,4
 threaded='^app\.threads\.|Thread|TwoSolvesAtOnce|ColouredSweeps|LargeProgramsOfAnyGraphShape'
 ctest --test-dir build-tsan --output-on-failure -j "$(nproc)" -R "$threaded" -LE long

@@ -292,6 +292,90 @@ time: {step: 1.0e-3, end: 1}
   EXPECT_LT(out.final_speed, 1e-6);
 }
 
+// S8: a block on a slope of a = 0.4 rad just outside and just inside its stick threshold
+// (mu = 0.99 and 1.01 tan a), on two corners in 2D and four in 3D, every solve at the default
+// tolerance (1e-6). At 0.99 it slides at g (sin a - mu cos a) to 0.1 %; at 1.01 it moves
+// less than 1e-9 m in 1 s; in both, no penetration beyond the tolerance times h (1e-9 m).
+// A solve that stops at its tolerance leaves a resting corner's gap at about +1e-12 m: the
+// VEL index set must still take it as closed (contact_problem.hpp, touchingGap), or the block
+// falls through that corner for a step (h^2 g = 1e-5 m) and creeps.
+TEST_P(Stress, S8BlockAtItsStickThresholdSlidesOrHoldsAtTheDefaultTolerance) {
+  const double a = 0.4, g = 9.81, h = 1e-3;
+  for (int dimension : {2, 3})
+    for (double factor : {0.99, 1.01}) {
+      const double mu = factor * std::tan(a);
+      auto number = [](double x) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.17g", x);
+        return std::string(text);
+      };
+      auto list = [&](const Vector3& x, int k) {
+        std::string out = "[" + number(x[0]);
+        for (int i = 1; i < k; ++i) out += ", " + number(x[i]);
+        return out + "]";
+      };
+      std::string text =
+          "contact: {friction: " + number(mu) + ", restitution: 0}\ntime: {step: 1.0e-3, end: 1}\n";
+      // the slope through the origin, normal n; the block's bottom face on it
+      const Vector3 n = dimension == 2 ? Vector3(-std::sin(a), std::cos(a), 0.0)
+                                       : Vector3(0.0, -std::sin(a), std::cos(a));
+      const double half_height = dimension == 2 ? 0.1 : 0.05;
+      const Vector3 centre = half_height * n;
+      if (dimension == 2)
+        text +=
+            "dimension: 2\ngravity: [0, -9.81]\nbodies:\n"
+            "  - {name: slope, shape: half_plane, position: [0, 0], normal: " +
+            list(n, 2) +
+            ", fixed: true}\n"
+            "  - {name: block, shape: polygon, vertices: [[-0.2, -0.1], [0.2, -0.1], [0.2, "
+            "0.1], [-0.2, 0.1]], position: " +
+            list(centre, 2) + ", angle: 0.4, mass: 1, inertia: 0.01666666666666667}\n";
+      else
+        text +=
+            "dimension: 3\ngravity: [0, 0, -9.81]\nbodies:\n"
+            "  - {name: slope, shape: plane, position: [0, 0, 0], normal: " +
+            list(n, 3) +
+            ", fixed: true}\n"
+            "  - {name: block, shape: box, size: [0.4, 0.2, 0.1], position: " +
+            list(centre, 3) + ", rpy: [0.4, 0, 0], mass: 1}\n";
+      const std::string name = "S8_" + std::to_string(dimension) + "d_" + std::to_string(factor);
+      SceneFile file = loadSceneText(text, "stress/" + name + ".yaml");
+      file.run.scheme.scheme = GetParam();
+      const Scene scene = buildSceneFile(file);
+      TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+      stepper.reset(0.0, scene.q0, scene.v0);
+      // the block's centre and its velocity along the slope's line of greatest descent
+      const Vector3 down = dimension == 2 ? Vector3(-std::cos(a), -std::sin(a), 0.0)
+                                          : Vector3(0.0, -std::cos(a), -std::sin(a));
+      auto centreOf = [&] {
+        return dimension == 2 ? Vector3(stepper.q()[0], stepper.q()[1], 0.0)
+                              : Vector3(stepper.q()[0], stepper.q()[1], stepper.q()[2]);
+      };
+      auto speed = [&] {
+        return dimension == 2 ? Vector3(stepper.v()[0], stepper.v()[1], 0.0).dot(down)
+                              : stepper.v().head<3>().dot(down);
+      };
+      double penetration = 0.0;
+      for (int k = 0; k < 10; ++k)
+        penetration = std::max(penetration, stepper.step().penetration_max);
+      const Vector3 start = centreOf();
+      const double v0 = speed();
+      for (int k = 0; k < 990; ++k)
+        penetration = std::max(penetration, stepper.step().penetration_max);
+      const double moved = (centreOf() - start).norm();
+      const double acceleration = (speed() - v0) / (990 * h);
+      std::printf("%s: penetration %.3e m, moved %.3e m, acceleration %.6f m/s^2\n", name.c_str(),
+                  penetration, moved, acceleration);
+      EXPECT_LT(penetration, 1e-6 * h) << name;
+      if (factor < 1.0) {
+        const double expected = g * (std::sin(a) - mu * std::cos(a));
+        EXPECT_NEAR(acceleration, expected, 1e-3 * expected) << name;
+      } else {
+        EXPECT_LT(moved, 1e-9) << name;
+      }
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Schemes, Stress, ::testing::Values(Scheme::MoreauJean, Scheme::CatchingUp),
                          [](const ::testing::TestParamInfo<Scheme>& scheme_info) {
                            return scheme_info.param == Scheme::MoreauJean ? "MoreauJean"

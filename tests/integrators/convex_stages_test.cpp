@@ -361,7 +361,8 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
     ASSERT_TRUE(projectedNewtonApplies(set));
     std::vector<double> x_one;
     VectorX v_one;
-    for (int threads : {1, 2, 3, 4}) {
+    const std::vector<int> counts = test::threadCounts();
+    for (int threads : counts) {
       MprgpSettings settings;
       settings.tolerance = 1e-10;
       settings.threads = threads;
@@ -375,7 +376,7 @@ TEST(ProjectedNewton, ThreadsGiveTheSameBits) {
         EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed over on " << threads;
         // the split is taken: the bits below compare a split factorization with CHOLMOD's own
         EXPECT_EQ(ws.factorThreads(), threads);
-        if (threads == 1 && solve == 0) {
+        if (threads == counts[0] && solve == 0) {
           x_one = x;
           v_one = v;
           // both kinds of blocks (inside and on the bound), so that the active set matters
@@ -410,7 +411,8 @@ TEST(Mprgp, ThreadsGiveTheSameBits) {
       set.add(discs ? BlockSet::Ball : BlockSet::NonNegative, discs ? 2 : 1, kDiscRadius);
     std::vector<double> x_one;
     VectorX v_one;
-    for (int threads : {1, 2, 3, 4}) {
+    const std::vector<int> counts = test::threadCounts();
+    for (int threads : counts) {
       MprgpSettings settings;
       settings.tolerance = 1e-6;
       settings.max_iterations = 5000;
@@ -421,11 +423,11 @@ TEST(Mprgp, ThreadsGiveTheSameBits) {
       const MprgpStats stats = discs ? solveApgd(program, set, settings, x, v, ws)
                                      : solveMprgp(program, set, settings, x, v, ws);
       ASSERT_TRUE(stats.converged) << threads << " threads, residual " << stats.residual;
-      if (threads == 1) {
+      if (threads == counts[0]) {
         x_one = x;
         v_one = v;
-        std::printf("%s: %d iterations on one thread\n", discs ? "APGD, discs" : "MPRGP, orthant",
-                    stats.iterations);
+        std::printf("%s: %d iterations on %d threads\n", discs ? "APGD, discs" : "MPRGP, orthant",
+                    stats.iterations, threads);
         continue;
       }
       EXPECT_TRUE(x == x_one) << threads << " threads";
@@ -580,11 +582,15 @@ TEST(ConvexStages, ColouredProductsGiveTheSameBitsOnAnyThreadCount) {
     box.width = planar ? 0.4 : 0.08;  // a few rows deep: settled in a few hundred steps
     SchemeSettings scheme;
     scheme.scheme = Scheme::CatchingUp;
-    scheme.h = 2e-4;
+    scheme.h = 4e-4;
     scheme.normal_stage.solver = StageSolver::Mprgp;
     scheme.friction_stage.solver = StageSolver::Mprgp;
+    // the settling only has to close a network: a loose tolerance makes it cheap under the
+    // sanitizers; the solves compared below run to 1e-7
+    scheme.normal_stage.tolerance = 1e-3;
+    scheme.friction_stage.tolerance = 1e-3;
     const test::SettledProblem pile =
-        test::settledProblem(granularBox(box), scheme, 300, NormalLaw::Vel);
+        test::settledProblem(granularBox(box), scheme, 150, NormalLaw::Vel);
     const ContactProblem& p = pile.step.problem;
     const int n = p.size();
     std::printf("%s: %d contacts\n", planar ? "disks" : "spheres", n);
@@ -610,9 +616,10 @@ TEST(ConvexStages, ColouredProductsGiveTheSameBitsOnAnyThreadCount) {
       EXPECT_EQ(friction.status, SolverStatus::Converged) << threads << " threads";
       return v;
     };
-    const VectorX reference = solve(1);
-    for (int threads : {2, 3, 4})
-      EXPECT_TRUE(solve(threads) == reference) << (planar ? "disks, " : "spheres, ") << threads;
+    const std::vector<int> counts = test::threadCounts();
+    const VectorX reference = solve(counts[0]);
+    for (size_t k = 1; k < counts.size(); ++k)
+      EXPECT_TRUE(solve(counts[k]) == reference) << (planar ? "disks, " : "spheres, ") << counts[k];
     settings.parallel_rows = 1 << 30;
     const VectorX in_row_order = solve(2);
     const double scale = (reference - pile.step.v_free).norm();

@@ -3,7 +3,10 @@
 // state with the library's stage functions, so that a solver can be called on its own.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <random>
+#include <sstream>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -96,6 +99,20 @@ inline SettledProblem settledPowderHeap(NormalLaw law) {
   settings.h = 1e-5;
   settings.normal_law = NormalLaw::Vel;
   return settledProblem(buildScene(powderBed(parameters)), settings, 800, law);
+}
+
+// The thread counts a same-bits-for-every-count test compares, the first one its reference:
+// SWEEP_TEST_THREAD_COUNTS ("2,4") where set, else 1, 2, 3 and 4. The sanitizer runs take two
+// counts (scripts/sanitize.sh, tsan.sh): an instrumented solve costs 10 to 30 plain ones.
+inline std::vector<int> threadCounts() {
+  std::vector<int> counts;
+  if (const char* listed = std::getenv("SWEEP_TEST_THREAD_COUNTS")) {
+    std::stringstream in(listed);
+    std::string item;
+    while (std::getline(in, item, ',')) counts.push_back(std::stoi(item));
+  }
+  if (counts.size() < 2) counts = {1, 2, 3, 4};
+  return counts;
 }
 
 // Test-name suffix of a scheme parameter.
