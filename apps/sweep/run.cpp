@@ -399,7 +399,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     if (settings.output.stats && !scene.model.actuators.empty()) outputs.push_back("actuators.csv");
     if (settings.output.layer) outputs.insert(outputs.end(), {"layer.json", "layer_height.png"});
     if (settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0)
-      outputs.push_back("snapshots.pvd");
+      outputs.insert(outputs.end(), {"snapshots.pvd", "contacts.pvd"});
     for (const std::string& name : outputs) requireOutputFile(options.out_dir + "/" + name);
   }
   std::optional<StreamedFile> stats, actuators;

@@ -1,5 +1,6 @@
 #include "apps/sweep/vtk_writer.hpp"
 
+#include <array>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -15,6 +16,33 @@ struct Cell {
   enum class Kind { Vertex, Line, Polygon } kind;
   std::vector<int> points;
 };
+
+void writeCollection(const std::string& path,
+                     const std::vector<std::pair<double, std::string>>& entries) {
+  std::ostringstream pvd;
+  pvd << std::setprecision(17)
+      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+  for (const auto& [time, file] : entries)
+    pvd << "<DataSet timestep=\"" << time << "\" part=\"0\" file=\"" << file << "\"/>\n";
+  pvd << "</Collection>\n</VTKFile>\n";
+  writeFileAtomically(path, pvd.str());
+}
+
+void vectorArray(std::ostringstream& x, const char* name, const std::vector<Vector3>& values) {
+  x << "<DataArray type=\"Float64\" Name=\"" << name
+    << "\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+  for (const Vector3& value : values)
+    x << value.x() << ' ' << value.y() << ' ' << value.z() << '\n';
+  x << "</DataArray>\n";
+}
+
+template <class T>
+void scalarArray(std::ostringstream& x, const char* type, const char* name,
+                 const std::vector<T>& values) {
+  x << "<DataArray type=\"" << type << "\" Name=\"" << name << "\" format=\"ascii\">\n";
+  for (const T& value : values) x << value << ' ';
+  x << "\n</DataArray>\n";
+}
 
 }  // namespace
 
@@ -145,28 +173,14 @@ void VtkSeries::write(const TimeStepper& stepper) {
     << "\" NumberOfLines=\"" << lines << "\" NumberOfStrips=\"0\" NumberOfPolys=\"" << polys
     << "\">\n";
   x << "<PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
-  auto ints = [&](const char* name, const std::vector<int>& values) {
-    x << "<DataArray type=\"Int32\" Name=\"" << name << "\" format=\"ascii\">\n";
-    for (int value : values) x << value << ' ';
-    x << "\n</DataArray>\n";
-  };
-  auto vectors = [&](const char* name, const std::vector<Vector3>& values) {
-    x << "<DataArray type=\"Float64\" Name=\"" << name
-      << "\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-    for (const Vector3& value : values)
-      x << value.x() << ' ' << value.y() << ' ' << value.z() << '\n';
-    x << "</DataArray>\n";
-  };
-  ints("body_id", body_id);
-  ints("kind", kind);
-  ints("shape", shape_type);
-  x << "<DataArray type=\"Float64\" Name=\"radius\" format=\"ascii\">\n";
-  for (double r : radius) x << r << ' ';
-  x << "\n</DataArray>\n";
-  vectors("velocity", velocity);
-  vectors("contact_force", contact_force);
+  scalarArray(x, "Int32", "body_id", body_id);
+  scalarArray(x, "Int32", "kind", kind);
+  scalarArray(x, "Int32", "shape", shape_type);
+  scalarArray(x, "Float64", "radius", radius);
+  vectorArray(x, "velocity", velocity);
+  vectorArray(x, "contact_force", contact_force);
   x << "</PointData>\n<Points>\n";
-  vectors("points", points);
+  vectorArray(x, "points", points);
   x << "</Points>\n";
   auto cellBlock = [&](const char* tag, Cell::Kind k) {
     x << "<" << tag << ">\n<DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
@@ -184,18 +198,82 @@ void VtkSeries::write(const TimeStepper& stepper) {
   cellBlock("Polys", Cell::Kind::Polygon);
   x << "</Piece>\n</PolyData>\n</VTKFile>\n";
 
-  std::ostringstream name;
-  name << "vtk/snapshot_" << std::setw(6) << std::setfill('0') << entries_.size() << ".vtp";
-  writeFileAtomically(dir_ + "/" + name.str(), x.str());
-  entries_.emplace_back(t, name.str());
+  std::ostringstream number;
+  number << std::setw(6) << std::setfill('0') << entries_.size() << ".vtp";
+  const std::string name = "vtk/snapshot_" + number.str();
+  writeFileAtomically(dir_ + "/" + name, x.str());
+  writeContacts(stepper, "vtk/contacts_" + number.str());
+  entries_.emplace_back(t, name);
+  writeCollection(dir_ + "/snapshots.pvd", entries_);
+}
 
-  std::ostringstream pvd;
-  pvd << std::setprecision(17)
-      << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
-  for (const auto& [time, file] : entries_)
-    pvd << "<DataSet timestep=\"" << time << "\" part=\"0\" file=\"" << file << "\"/>\n";
-  pvd << "</Collection>\n</VTKFile>\n";
-  writeFileAtomically(dir_ + "/snapshots.pvd", pvd.str());
+void VtkSeries::writeContacts(const TimeStepper& stepper, const std::string& name) {
+  const auto& contacts = stepper.contactData().contacts;
+  const auto& impulses = stepper.impulses();
+  const double h = stepper.settings().h;
+  std::vector<Vector3> points, normal, tangential_impulse, force;
+  std::vector<double> normal_impulse, gap;
+  std::vector<int> body_a, body_b;
+  int written = 0;
+  for (std::size_t c = 0; c < contacts.size() && c < impulses.size(); ++c) {
+    const Contact& k = contacts[c];
+    const Vector3& P = impulses[c];
+    if (P.isZero(0.0) && k.gap > 0.0) continue;
+    // a body's centre, or the contact's point on a side that is not a dynamic body; b's
+    // centre moved with the periodic image the pair meets (point_b is on that image)
+    const Vector3 image = k.point_a + k.gap * k.normal - k.point_b;
+    auto centre = [&](const BodyRef& body, const Vector3& point, const Vector3& shift) {
+      return body.kind == BodyRef::Kind::Dynamic
+                 ? Vector3(data_.world_pose[body.index].translation + shift)
+                 : point;
+    };
+    const Vector3 tangential = P.y() * k.tangent1 + P.z() * k.tangent2;
+    const std::array<Vector3, 3> at = {k.point_a + 0.5 * k.gap * k.normal,
+                                       centre(k.body_a, k.point_a, Vector3::Zero()),
+                                       centre(k.body_b, k.point_b + image, image)};
+    for (const Vector3& point : at) {
+      points.push_back(point);
+      normal.push_back(k.normal);
+      normal_impulse.push_back(P.x());
+      tangential_impulse.push_back(tangential);
+      force.push_back((P.x() * k.normal + tangential) / h);
+      gap.push_back(k.gap);
+      body_a.push_back(k.body_a.kind == BodyRef::Kind::Dynamic ? k.body_a.index : -1);
+      body_b.push_back(k.body_b.kind == BodyRef::Kind::Dynamic ? k.body_b.index : -1);
+    }
+    ++written;
+  }
+  std::ostringstream x;
+  x << std::setprecision(9) << "<?xml version=\"1.0\"?>\n"
+    << "<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n<PolyData>\n"
+    << "<Piece NumberOfPoints=\"" << points.size() << "\" NumberOfVerts=\"" << written
+    << "\" NumberOfLines=\"" << written
+    << "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n<PointData Scalars=\"normal_impulse\" "
+       "Vectors=\"force\">\n";
+  scalarArray(x, "Float64", "normal_impulse", normal_impulse);
+  vectorArray(x, "tangential_impulse", tangential_impulse);
+  vectorArray(x, "normal", normal);
+  vectorArray(x, "force", force);
+  scalarArray(x, "Float64", "gap", gap);
+  scalarArray(x, "Int32", "body_a", body_a);
+  scalarArray(x, "Int32", "body_b", body_b);
+  x << "</PointData>\n<Points>\n";
+  vectorArray(x, "points", points);
+  x << "</Points>\n";
+  auto cells = [&](const char* tag, int first, int size) {
+    x << "<" << tag << ">\n<DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
+    for (int c = 0; c < written; ++c)
+      for (int k = 0; k < size; ++k) x << 3 * c + first + k << ' ';
+    x << "\n</DataArray>\n<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n";
+    for (int c = 1; c <= written; ++c) x << size * c << ' ';
+    x << "\n</DataArray>\n</" << tag << ">\n";
+  };
+  cells("Verts", 0, 1);
+  cells("Lines", 1, 2);
+  x << "</Piece>\n</PolyData>\n</VTKFile>\n";
+  writeFileAtomically(dir_ + "/" + name, x.str());
+  contact_entries_.emplace_back(stepper.time(), name);
+  writeCollection(dir_ + "/contacts.pvd", contact_entries_);
 }
 
 }  // namespace sweep

@@ -5,6 +5,11 @@
 // id, kind, shape type (ShapeType), radius, velocity and contact force as point data and the
 // scene's dimension and gravity as field data; and a .pvd collection that lists the snapshots with
 // their times, rewritten after each one so it is always valid.
+// Beside each snapshot, the last step's contact network (vtk/contacts_NNNNNN.vtp, listed in
+// contacts.pvd), as LMGC90 and LIGGGHTS write theirs: every contact that carried an impulse
+// or overlaps, as three points with its values (its point, a vertex; the two bodies' centres, a
+// line: the force chain's segment), with the normal, the normal and tangential impulses, the
+// force, the gap and the two body ids as point data.
 #include <string>
 #include <vector>
 
@@ -26,6 +31,9 @@ class VtkSeries {
   Data data_;
   ContactData cdata_;
   std::vector<std::pair<double, std::string>> entries_;  // time, file name
+  std::vector<std::pair<double, std::string>> contact_entries_;
+
+  void writeContacts(const TimeStepper& stepper, const std::string& name);
 };
 
 }  // namespace sweep

@@ -346,8 +346,12 @@ class Hostile(unittest.TestCase):
         r = subprocess.run([SWEEP, "run", path, "--out", os.path.join(folder, "out"), "--quiet"],
                            capture_output=True, text=True, timeout=60)
         self.assertEqual(r.returncode, 0, r.stderr)
-        vtk = [f for f in os.listdir(os.path.join(folder, "out", "vtk")) if f.endswith(".vtp")]
+        vtk = [f for f in os.listdir(os.path.join(folder, "out", "vtk"))
+               if f.startswith("snapshot_") and f.endswith(".vtp")]
         self.assertEqual(len(vtk), 51)  # the initial state and one per step
+        contacts = [f for f in os.listdir(os.path.join(folder, "out", "vtk"))
+                    if f.startswith("contacts_") and f.endswith(".vtp")]
+        self.assertEqual(len(contacts), 51)  # a contact network beside each
 
     def test_a_huge_normal_is_the_same_wall(self):
         finals = []

@@ -83,6 +83,63 @@ class Snapshots(unittest.TestCase):
         self.assertEqual(data.GetNumberOfPolys() % 6, 0)
         self.assertEqual(int((kind == 1).sum()), 800)
 
+    def contacts(self, out):
+        datasets = ET.parse(os.path.join(out, "contacts.pvd")).getroot().findall(
+            "./Collection/DataSet")
+        return [(float(d.get("timestep")), read(os.path.join(out, d.get("file"))))
+                for d in datasets]
+
+    def test_contact_network_of_a_resting_box_carries_its_weight(self):
+        # a 2 kg box resting flat on a plane: its four corners' forces sum to m g
+        scene = os.path.join(scratch_dir(self, "sweep_vtk_box_"), "box.yaml")
+        with open(scene, "w") as f:
+            f.write("dimension: 3\ngravity: [0, 0, -9.81]\ncontact: {friction: 0.5, restitution: 0}\n"
+                    "bodies:\n"
+                    "  - {name: floor, shape: plane, position: [0, 0, 0], normal: [0, 0, 1], fixed: true}\n"
+                    "  - {name: box, shape: box, size: [0.2, 0.1, 0.05], position: [0, 0, 0.025], mass: 2}\n"
+                    "time: {step: 1.0e-3, end: 0.05}\noutput: {vtk_interval: 0.025}\n")
+        out, snapshots = self.run_scene(scene)
+        network = self.contacts(out)
+        self.assertEqual([t for t, _ in network], [t for t, _ in snapshots])
+        self.assertEqual(network[0][1].GetNumberOfPoints(), 0)  # no step taken yet
+        _, last = network[-1]
+        self.assertEqual(last.GetNumberOfVerts(), 4)
+        self.assertEqual(last.GetNumberOfLines(), 4)
+        data = last.GetPointData()
+        for name in ("normal_impulse", "tangential_impulse", "normal", "force", "gap", "body_a",
+                     "body_b"):
+            self.assertIsNotNone(data.GetArray(name), name)
+        force = vtk_to_numpy(data.GetArray("force"))
+        points = vtk_to_numpy(last.GetPoints().GetData())
+        bodies = {int(b) for b in vtk_to_numpy(data.GetArray("body_b"))}
+        self.assertEqual(bodies, {0})
+        # each contact is three points (its point, then the two sides' centres): one force each
+        self.assertAlmostEqual(sum(force[3 * c][2] for c in range(4)), 2 * 9.81, delta=1e-6)
+        for c in range(4):
+            self.assertAlmostEqual(points[3 * c][2], 0.0, delta=1e-6)  # the corners, on the floor
+            self.assertAlmostEqual(points[3 * c + 2][2], 0.025, delta=1e-6)  # the box's centre
+
+    def test_contact_network_of_a_periodic_powder_bed_stays_local(self):
+        # contacts across the periodic bound are drawn to the image they meet, not across the bed
+        out, _ = self.run_scene("examples/powder_bed/powder_bed_reduced.yaml", "--t-end", "0.01",
+                                "--set", "output.vtk_interval=0.005")
+        _, last = self.contacts(out)[-1]
+        lines = last.GetNumberOfLines()
+        self.assertGreater(lines, 100)
+        points = vtk_to_numpy(last.GetPoints().GetData())
+        body_b = vtk_to_numpy(last.GetPointData().GetArray("body_b"))
+        impulse = vtk_to_numpy(last.GetPointData().GetArray("normal_impulse"))
+        self.assertTrue((impulse >= 0.0).all())
+        self.assertTrue((body_b >= 0).all())  # b is a grain in every grain contact
+        # the bed is periodic along z on [0, 0.4 mm): some contacts meet a grain's image, and
+        # their segment ends at that image's centre, outside the period
+        period = 4e-4
+        across = [c for c in range(lines)
+                  if not all(0.0 <= points[3 * c + k][2] < period for k in (1, 2))]
+        self.assertGreater(len(across), 0)
+        longest = max(sum((points[3 * c + 1] - points[3 * c + 2]) ** 2) ** 0.5
+                      for c in range(lines))
+        self.assertLess(longest, 1e-4)  # grains of at most 25 um radius
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)
