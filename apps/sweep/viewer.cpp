@@ -51,6 +51,10 @@ std::string attribute(const std::string& tag, const std::string& name) {
   return end == std::string::npos ? std::string() : tag.substr(begin, end - begin);
 }
 
+double norm3(const std::vector<double>& x, int k) {
+  return std::sqrt(x[3 * k] * x[3 * k] + x[3 * k + 1] * x[3 * k + 1] + x[3 * k + 2] * x[3 * k + 2]);
+}
+
 struct Snapshot {
   double time = 0.0;
   int dimension = 0;            // 0: not stated
@@ -108,6 +112,35 @@ class SnapshotReader {
     for (double r : s.radius)
       if (!(r >= 0.0 && std::isfinite(r))) fail("radius", "holds a negative or non-finite value");
     return s;
+  }
+
+  // A contact network (vtk_writer.hpp): per line (the segment between the two bodies' centres)
+  // x1, y1, z1, x2, y2, z2 and the contact's force magnitude, into `chains`; the magnitudes
+  // also into `forces`.
+  void readChains(std::vector<float>& chains, std::vector<double>& forces) {
+    const std::size_t piece = text_.find("<Piece ");
+    if (text_.find("<VTKFile type=\"PolyData\"") == std::string::npos || piece == std::string::npos)
+      fail("VTKFile", "is not a PolyData file");
+    const std::string piece_tag = text_.substr(piece, text_.find('>', piece) - piece);
+    const long n = count(piece_tag, "NumberOfPoints");
+    std::vector<double> points, force;
+    std::vector<int> lines, offsets;
+    array("points", points, 3 * n, piece);
+    array("force", force, 3 * n, piece);
+    cells("Lines", lines, offsets, n, count(piece_tag, "NumberOfLines"));
+    for (int k = 0; k < static_cast<int>(offsets.size()); ++k)
+      if (offsets[k] != 2 * (k + 1)) fail("Lines", "must hold two points per line");
+    for (double x : points)
+      if (!std::isfinite(x)) fail("points", "holds a value that is not finite");
+    for (std::size_t l = 0; l < offsets.size(); ++l) {
+      const int a = lines[2 * l], b = lines[2 * l + 1];
+      for (int point : {a, b})
+        for (int i = 0; i < 3; ++i) chains.push_back(static_cast<float>(points[3 * point + i]));
+      const double magnitude = norm3(force, a);
+      if (!std::isfinite(magnitude)) fail("force", "holds a value that is not finite");
+      chains.push_back(static_cast<float>(magnitude));
+      forces.push_back(magnitude);
+    }
   }
 
  private:
@@ -212,10 +245,6 @@ std::string base64(const std::vector<T>& values) {
   return out;
 }
 
-double norm3(const std::vector<double>& x, int k) {
-  return std::sqrt(x[3 * k] * x[3 * k] + x[3 * k + 1] * x[3 * k + 1] + x[3 * k + 2] * x[3 * k + 2]);
-}
-
 // A snapshot as the page draws it: per vertex cell (x, y, z, r, speed, force, kind); per line
 // (x1, y1, z1, x2, y2, z2, r, speed, force, kind, shape); per polygon its vertex count and per
 // vertex (x, y, z, speed, force, kind).
@@ -314,22 +343,56 @@ int readViewerSnapshot(const std::string& file, const std::string& text) {
 
 namespace {
 
+// The (time, file) entries of a .pvd collection, in order.
+std::vector<std::pair<double, std::string>> collectionEntries(const std::filesystem::path& path,
+                                                              const std::string& results_dir) {
+  namespace fs = std::filesystem;
+  const std::string pvd = readWhole(path, kMaxCollectionBytes, "snapshot collection");
+  std::vector<std::pair<double, std::string>> entries;
+  for (std::size_t at = pvd.find("<DataSet "); at != std::string::npos;
+       at = pvd.find("<DataSet ", at + 1)) {
+    const std::string tag = pvd.substr(at, pvd.find('>', at) - at);
+    const std::string time = attribute(tag, "timestep"), file = attribute(tag, "file");
+    char* end = nullptr;
+    const double t = std::strtod(time.c_str(), &end);
+    if (time.empty() || *end != '\0' || !std::isfinite(t))
+      throw InputError(path.string() + ": DataSet timestep: must be a number, got '" + time + "'");
+    // a Sweep collection names files inside its folder only
+    if (file.empty() || fs::path(file).is_absolute() || file.find("..") != std::string::npos)
+      throw InputError(path.string() + ": DataSet file: must be a path inside " + results_dir +
+                       ", got '" + file + "'");
+    entries.emplace_back(t, file);
+  }
+  if (entries.empty()) throw InputError(path.string() + ": lists no DataSet");
+  return entries;
+}
+
 // The --every the page is built with, from the first snapshot's frame encoded: the page is
 // assembled in about four copies, and each snapshot's dynamic bodies leave two numbers for the
 // colour scales.
+// The contact network, when there is one, is measured on the last (the first has none).
 int pageEvery(const ViewerOptions& options, const std::filesystem::path& dir,
-              const std::vector<std::pair<double, std::string>>& entries) {
+              const std::vector<std::pair<double, std::string>>& entries,
+              const std::vector<std::pair<double, std::string>>& networks) {
   const std::string file = (dir / entries.front().second).string();
   SnapshotReader reader(file, readWhole(file, kMaxSnapshotBytes, "snapshot"));
   std::vector<double> speeds, forces;
   double bounds[6] = {0, 0, 0, 0, 0, 0};
   const Frame f = frameOf(reader.read(entries.front().first), speeds, forces, bounds);
-  const double floats = static_cast<double>(f.balls.size() + f.lines.size() +
-                                            f.polygon_sizes.size() + f.polygon_vertices.size());
+  std::vector<float> chains;
+  if (!networks.empty()) {
+    const std::string last = (dir / networks.back().second).string();
+    SnapshotReader(last, readWhole(last, kMaxSnapshotBytes, "contact network"))
+        .readChains(chains, forces);
+  }
+  const double floats =
+      static_cast<double>(f.balls.size() + f.lines.size() + f.polygon_sizes.size() +
+                          f.polygon_vertices.size() + chains.size());
   ViewerPage page;
   page.snapshots = entries.size();
   page.bytes_per_snapshot = 4.0 / 3.0 * 4.0 * floats + 200.0;
-  page.memory_per_snapshot = 4.0 * page.bytes_per_snapshot + 16.0 * speeds.size();
+  page.memory_per_snapshot =
+      4.0 * page.bytes_per_snapshot + 16.0 * speeds.size() + 8.0 * chains.size() / 7;
   page.memory_limit = static_cast<double>(memoryLimitBytes());
   return fittingEvery(page, options.every, options.log);
 }
@@ -394,26 +457,13 @@ std::string writeViewer(const ViewerOptions& options) {
   const fs::path out_folder = fs::absolute(fs::path(out)).parent_path();
   if (!fs::is_directory(out_folder, error))
     throw InputError("--out: " + out + ": the folder " + out_folder.string() + " does not exist");
-  const std::string pvd = readWhole(collection, kMaxCollectionBytes, "snapshot collection");
-
-  // the collection's (time, file) entries, in order
-  std::vector<std::pair<double, std::string>> entries;
-  for (std::size_t at = pvd.find("<DataSet "); at != std::string::npos;
-       at = pvd.find("<DataSet ", at + 1)) {
-    const std::string tag = pvd.substr(at, pvd.find('>', at) - at);
-    const std::string time = attribute(tag, "timestep"), file = attribute(tag, "file");
-    char* end = nullptr;
-    const double t = std::strtod(time.c_str(), &end);
-    if (time.empty() || *end != '\0' || !std::isfinite(t))
-      throw InputError(collection.string() + ": DataSet timestep: must be a number, got '" + time +
-                       "'");
-    // a Sweep collection names files inside its folder only
-    if (file.empty() || fs::path(file).is_absolute() || file.find("..") != std::string::npos)
-      throw InputError(collection.string() + ": DataSet file: must be a path inside " +
-                       options.results_dir + ", got '" + file + "'");
-    entries.emplace_back(t, file);
-  }
-  if (entries.empty()) throw InputError(collection.string() + ": lists no DataSet");
+  const std::vector<std::pair<double, std::string>> entries =
+      collectionEntries(collection, options.results_dir);
+  // the contact networks beside the snapshots (a run stopped between the two files of a
+  // snapshot lists one network fewer: that frame has none)
+  std::vector<std::pair<double, std::string>> networks;
+  if (fs::exists(dir / "contacts.pvd", error))
+    networks = collectionEntries(dir / "contacts.pvd", options.results_dir);
 
   const std::string three_dir = !options.three_dir.empty() ? options.three_dir
                                 : std::getenv("SWEEP_THREE_DIR") != nullptr
@@ -428,8 +478,8 @@ std::string writeViewer(const ViewerOptions& options) {
                        ": not found; the viewer inlines three.js from Debian's libjs-three "
                        "(apt-get install libjs-three) or from $SWEEP_THREE_DIR");
 
-  const int every = pageEvery(options, dir, entries);
-  std::vector<double> speeds, forces;
+  const int every = pageEvery(options, dir, entries, networks);
+  std::vector<double> speeds, forces, chain_forces;
   double bounds[6] = {
       std::numeric_limits<double>::infinity(),  std::numeric_limits<double>::infinity(),
       std::numeric_limits<double>::infinity(),  -std::numeric_limits<double>::infinity(),
@@ -454,10 +504,16 @@ std::string writeViewer(const ViewerOptions& options) {
     if (g > 0.0) up = {-s.gravity[0] / g, -s.gravity[1] / g, -s.gravity[2] / g};
     for (std::size_t k = 2; k < s.points.size(); k += 3) any_z = any_z || s.points[k] != 0.0;
     const Frame f = frameOf(s, speeds, forces, bounds);
+    std::vector<float> chains;
+    if (e < networks.size()) {
+      const fs::path network = dir / networks[e].second;
+      SnapshotReader(network.string(), readWhole(network, kMaxSnapshotBytes, "contact network"))
+          .readChains(chains, chain_forces);
+    }
     frames << (kept++ ? ",\n" : "") << "{\"t\":" << s.time << ",\"balls\":\"" << base64(f.balls)
            << "\",\"lines\":\"" << base64(f.lines) << "\",\"polygon_sizes\":\""
            << base64(f.polygon_sizes) << "\",\"polygon_vertices\":\"" << base64(f.polygon_vertices)
-           << "\"}";
+           << "\",\"chains\":\"" << base64(chains) << "\"}";
   }
   frames << "]";
   if (dimension == 0) dimension = any_z ? 3 : 2;
@@ -469,8 +525,10 @@ std::string writeViewer(const ViewerOptions& options) {
        << ",\"dimension\":" << dimension << ",\"up\":[" << up[0] << "," << up[1] << "," << up[2]
        << "],\"bounds\":[" << bounds[0];
   for (int i = 1; i < 6; ++i) data << "," << bounds[i];
+  const bool any_chains = !chain_forces.empty();
   data << "],\"speed_top\":" << scaleTop(speeds) << ",\"force_top\":" << scaleTop(forces)
-       << ",\"frames\":" << frames.str() << "}";
+       << ",\"chains\":" << (any_chains ? "true" : "false")
+       << ",\"chain_top\":" << scaleTop(chain_forces) << ",\"frames\":" << frames.str() << "}";
 
   std::string page = kViewerPage;
   replaceOnce(page, "/*SWEEP_THREE*/", readWhole(three, kMaxCollectionBytes, "three.js"));

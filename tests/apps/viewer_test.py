@@ -47,6 +47,7 @@ def near(canvas, rgb, tolerance=0.12):
 
 
 VIRIDIS_LOW, VIRIDIS_HIGH = (0.267, 0.005, 0.329), (0.993, 0.906, 0.144)
+PLAIN, PALE = (0.80, 0.62, 0.38), (0.88, 0.88, 0.88)  # bodies uncoloured; behind force chains
 
 
 class Page(unittest.TestCase):
@@ -94,6 +95,19 @@ class Page(unittest.TestCase):
         plain = screenshot(page, os.path.join(out, "plain.png"), "frame=last&colour=none")
         self.assertGreater(drawn(plain)[0], 0.05)
         self.assertEqual(near(plain, VIRIDIS_HIGH), 0)
+        # force chains: the disks pale, each contact a band between two centres in the scale's
+        # colours (the last frame's pile at the low end) drawn over them
+        chains = screenshot(page, os.path.join(out, "chains.png"), "frame=last&colour=chains")
+        self.assertEqual(near(chains, PLAIN, 0.05), 0)
+        self.assertGreater(near(chains, PALE, 0.03), 0.02 * chains.shape[0] * chains.shape[1])
+        self.assertGreater(near(chains, VIRIDIS_LOW, 0.2), 200)
+        self.assertGreater(near(chains, VIRIDIS_LOW, 0.2), 10 * near(plain, VIRIDIS_LOW, 0.2))
+        # results without contact networks (written before them) give a page without the option
+        os.remove(os.path.join(out, "contacts.pvd"))
+        result = sweep("view", out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(page) as f:
+            self.assertIn('"chains":false', f.read())
 
     def test_powder_bed(self):
         out, page = self.run_scene("examples/powder_bed/powder_bed_reduced.yaml", "--t-end",
