@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "apps/sweep/run.hpp"
+#include "contact/shape.hpp"
 #include "framework/error.hpp"
 #include "framework/memory.hpp"
 
@@ -247,18 +248,28 @@ std::string base64(const std::vector<T>& values) {
 
 // A snapshot as the page draws it: per vertex cell (x, y, z, r, speed, force, kind); per line
 // (x1, y1, z1, x2, y2, z2, r, speed, force, kind, shape); per polygon its vertex count and per
-// vertex (x, y, z, speed, force, kind).
+// vertex (x, y, z, speed, force, kind); per plane (the snapshot's square of it, drawn see-through
+// so that a wall does not hide the scene) its four corners' x, y, z.
 struct Frame {
-  std::vector<float> balls, lines, polygon_vertices;
+  std::vector<float> balls, lines, polygon_vertices, planes;
   std::vector<std::int32_t> polygon_sizes;
 };
+
+// Planes and half-planes are drawn at the size of the other shapes: they do not set the bounds
+// the camera fits.
+bool unboundedShape(int shape) {
+  return shape == static_cast<int>(ShapeType::HalfSpace) ||
+         shape == static_cast<int>(ShapeType::HalfPlane);
+}
 
 Frame frameOf(const Snapshot& s, std::vector<double>& speeds, std::vector<double>& forces,
               double bounds[6]) {
   Frame f;
   auto point = [&](int k, std::vector<float>& out) {
+    const bool measured = !unboundedShape(s.shape[k]);
     for (int i = 0; i < 3; ++i) {
       out.push_back(static_cast<float>(s.points[3 * k + i]));
+      if (!measured) continue;
       bounds[i] = std::min(bounds[i], s.points[3 * k + i] - s.radius[k]);
       bounds[3 + i] = std::max(bounds[3 + i], s.points[3 * k + i] + s.radius[k]);
     }
@@ -288,6 +299,11 @@ Frame frameOf(const Snapshot& s, std::vector<double>& speeds, std::vector<double
   }
   int begin = 0;
   for (int end : s.polys_offsets) {
+    if (s.shape[s.polys[begin]] == static_cast<int>(ShapeType::HalfSpace) && end - begin == 4) {
+      for (int i = begin; i < end; ++i) point(s.polys[i], f.planes);
+      begin = end;
+      continue;
+    }
     f.polygon_sizes.push_back(end - begin);
     for (int i = begin; i < end; ++i) {
       point(s.polys[i], f.polygon_vertices);
@@ -387,7 +403,7 @@ int pageEvery(const ViewerOptions& options, const std::filesystem::path& dir,
   }
   const double floats =
       static_cast<double>(f.balls.size() + f.lines.size() + f.polygon_sizes.size() +
-                          f.polygon_vertices.size() + chains.size());
+                          f.polygon_vertices.size() + f.planes.size() + chains.size());
   ViewerPage page;
   page.snapshots = entries.size();
   page.bytes_per_snapshot = 4.0 / 3.0 * 4.0 * floats + 200.0;
@@ -513,7 +529,8 @@ std::string writeViewer(const ViewerOptions& options) {
     frames << (kept++ ? ",\n" : "") << "{\"t\":" << s.time << ",\"balls\":\"" << base64(f.balls)
            << "\",\"lines\":\"" << base64(f.lines) << "\",\"polygon_sizes\":\""
            << base64(f.polygon_sizes) << "\",\"polygon_vertices\":\"" << base64(f.polygon_vertices)
-           << "\",\"chains\":\"" << base64(chains) << "\"}";
+           << "\",\"planes\":\"" << base64(f.planes) << "\",\"chains\":\"" << base64(chains)
+           << "\"}";
   }
   frames << "]";
   if (dimension == 0) dimension = any_z ? 3 : 2;

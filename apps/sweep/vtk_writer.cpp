@@ -3,6 +3,7 @@
 #include <array>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "apps/sweep/run.hpp"
@@ -79,10 +80,14 @@ void VtkSeries::write(const TimeStepper& stepper) {
   std::vector<double> radius;
   std::vector<Vector3> velocity, contact_force;
   std::vector<Cell> cells;
+  std::vector<int> unbounded;
   for (int g = 0; g < cmodel.size(); ++g) {
     const Geometry& geometry = cmodel.geometries[g];
     const Shape& shape = geometry.shape;
-    if (isUnbounded(shape)) continue;
+    if (isUnbounded(shape)) {
+      unbounded.push_back(g);
+      continue;
+    }
     if (geometry.body.kind == BodyRef::Kind::Driven &&
         !model.driven_bodies[geometry.body.index].presentAt(t))
       continue;
@@ -150,6 +155,46 @@ void VtkSeries::write(const TimeStepper& stepper) {
     } else {
       cell.kind = Cell::Kind::Vertex;
       cell.points = {add(pose.translation, boundingRadius(shape))};
+    }
+    cells.push_back(cell);
+  }
+
+  // planes as a square and half-planes as a segment, centred under the other shapes and 1.2
+  // times their extent wide (1 m with nothing else to measure): ParaView and the viewer draw
+  // the floor a scene stands on
+  Vector3 low = Vector3::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    low = low.cwiseMin(points[k] - Vector3::Constant(radius[k]));
+    high = high.cwiseMax(points[k] + Vector3::Constant(radius[k]));
+  }
+  const bool measured = !points.empty() && (high - low).allFinite();
+  const Vector3 middle = measured ? Vector3(0.5 * (low + high)) : Vector3::Zero();
+  const double half = measured ? std::max(0.6 * (high - low).maxCoeff(), 1e-6) : 0.5;
+  for (int g : unbounded) {
+    const Geometry& geometry = cmodel.geometries[g];
+    const Pose& pose = cdata_.geometry_pose[g];
+    const bool planar = geometry.shape.type == ShapeType::HalfPlane;
+    const Vector3 normal = pose.rotation.col(planar ? 1 : 2);
+    const Vector3 foot = middle - (middle - pose.translation).dot(normal) * normal;
+    auto corner = [&](double along, double across) {
+      points.push_back(
+          foot + half * (along * pose.rotation.col(0) +
+                         across * (planar ? Vector3::Zero() : Vector3(pose.rotation.col(1)))));
+      body_id.push_back(-1);
+      kind.push_back(static_cast<int>(geometry.body.kind));
+      shape_type.push_back(static_cast<int>(geometry.shape.type));
+      radius.push_back(0.0);
+      velocity.push_back(Vector3::Zero());
+      contact_force.push_back(Vector3::Zero());
+      return static_cast<int>(points.size()) - 1;
+    };
+    Cell cell;
+    if (planar) {
+      cell.kind = Cell::Kind::Line;
+      cell.points = {corner(-1.0, 0.0), corner(1.0, 0.0)};
+    } else {
+      cell.kind = Cell::Kind::Polygon;
+      cell.points = {corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)};
     }
     cells.push_back(cell);
   }

@@ -1,7 +1,8 @@
 #pragma once
 // VTK snapshots for ParaView and `sweep view`: one PolyData file (.vtp) per snapshot, the
-// bodies' shapes as vertices (disks, spheres), lines (segments, and the axes of capsules and
-// cylinders), polygons (2D polygons, the six faces of boxes, the triangles of meshes), with body
+// bodies' shapes as vertices (disks, spheres), lines (segments, the axes of capsules and
+// cylinders, half-planes), polygons (2D polygons, the six faces of boxes, the triangles of
+// meshes, a square of each plane under the other shapes), with body
 // id, kind, shape type (ShapeType), radius, velocity and contact force as point data and the
 // scene's dimension and gravity as field data; and a .pvd collection that lists the snapshots with
 // their times, rewritten after each one so it is always valid.

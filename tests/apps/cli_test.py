@@ -97,9 +97,10 @@ class Run(unittest.TestCase):
         for k, d in enumerate(datasets):
             piece = ET.parse(os.path.join(self.out, d.get("file"))).getroot().find("./PolyData/Piece")
             n = int(piece.get("NumberOfPoints"))
-            # 24 disks, and the paddle's two end points until it is removed at t = 0.015
+            # 24 disks, the paddle's two end points until it is removed at t = 0.015, and the
+            # two ends of each of the three half-planes' segments
             paddle = 2 if float(d.get("timestep")) < 0.015 else 0
-            self.assertEqual(n, 24 + paddle, d.get("file"))
+            self.assertEqual(n, 24 + paddle + 3 * 2, d.get("file"))
             points = piece.find("./Points/DataArray").text.split()
             self.assertEqual(len(points), 3 * n)
             names = {a.get("Name") for a in piece.findall("./PointData/DataArray")}

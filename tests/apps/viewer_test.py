@@ -123,6 +123,23 @@ class Page(unittest.TestCase):
         self.assertGreater(bluish.mean(), 0.05)
         self.assertGreater(reddish.mean(), 0.02)
 
+    def test_a_plane_is_drawn_under_the_bodies(self):
+        # a box on a plane: the plane as a see-through grey square under it, wider than the box
+        folder = scratch_dir(self, "sweep_view_plane_")
+        scene = os.path.join(folder, "box.yaml")
+        with open(scene, "w") as f:
+            f.write("dimension: 3\ngravity: [0, 0, -9.81]\ncontact: {friction: 0.5}\nbodies:\n"
+                    "  - {name: floor, shape: plane, position: [0, 0, 0], normal: [0, 0, 1], fixed: true}\n"
+                    "  - {name: box, shape: box, size: [0.2, 0.1, 0.05], position: [0, 0, 0.025], mass: 1}\n"
+                    "time: {step: 1.0e-3, end: 0.01}\noutput: {vtk_interval: 0.005}\n")
+        out, page = self.run_scene(scene)
+        canvas = screenshot(page, os.path.join(out, "plane.png"), "frame=last&colour=none")
+        see_through = 1 - 0.3 * (1 - 0.62)  # the wall grey at opacity 0.3 over white
+        floor = near(canvas, (see_through,) * 3, 0.02)
+        box = int(((canvas[:, :, 0] > canvas[:, :, 2] + 0.05)).sum())  # tan, shaded
+        self.assertGreater(box, 1000)
+        self.assertGreater(floor, 0.05 * canvas.shape[0] * canvas.shape[1])
+
 
 class BadInput(unittest.TestCase):
     """Exit code 2 and a message naming the file and the field."""

@@ -78,9 +78,22 @@ class Snapshots(unittest.TestCase):
         kind = vtk_to_numpy(data.GetPointData().GetArray("kind"))
         verts = data.GetVerts()
         self.assertEqual(verts.GetNumberOfCells(), 800)  # the spheres
-        # boxes as six quadrilaterals each
-        self.assertGreater(data.GetNumberOfPolys(), 0)
-        self.assertEqual(data.GetNumberOfPolys() % 6, 0)
+        # boxes as six quadrilaterals each, and a square of each of the three planes (the plate
+        # and the two end walls) under the other shapes, as wide as them
+        polys = data.GetNumberOfPolys()
+        self.assertGreater(polys, 3)
+        self.assertEqual((polys - 3) % 6, 0)
+        shape = vtk_to_numpy(data.GetPointData().GetArray("shape"))
+        points = vtk_to_numpy(data.GetPoints().GetData())
+        plane_points = points[shape == 6]
+        self.assertEqual(len(plane_points), 3 * 4)
+        self.assertTrue((kind[shape == 6] == 0).all())
+        # the plate y = 0: a square in it, as wide along x as the bed and the walls
+        plate = [p for p in plane_points if abs(p[1]) < 1e-12]
+        self.assertEqual(len(plate), 4)
+        bodies = points[shape != 6]
+        self.assertGreater(max(p[0] for p in plate) - min(p[0] for p in plate),
+                           bodies[:, 0].max() - bodies[:, 0].min())
         self.assertEqual(int((kind == 1).sum()), 800)
 
     def contacts(self, out):
