@@ -2,11 +2,14 @@
 """Strong scaling: each case run with 1 thread and with N, alternating, side by side in one
 invocation; wall times (the least of --repeat runs), the stages' split of the first run
 (stats.csv's t_* columns, summed), and a check that both thread counts end in the same
-final_state.csv, bit for bit.
+final_state.csv, bit for bit. Then, per case and stage (and the whole step), the serial fraction
+that Amdahl's law gives from the two times, f = (N / S - 1) / (N - 1) for a speed-up S on N
+threads, and what it predicts on 16 threads, 1 / (f + (1 - f) / 16). On a machine whose cores
+are shared the fraction is an upper bound: noise only lowers S.
 
   /usr/bin/python3 bench/threads.py [--threads 2] [--repeat 1] [--cases funnel_50,...]
       [--funnel-state F50K.csv] [--powder-state SETTLED.csv] [--wide-state SETTLED_X10.csv]
-      [--pile-state PILE_X12.csv]
+      [--pile-state PILE_X12.csv] [--pile-copies 12]
 
 The cases that start from a saved state need it (docs/benchmarks.md, "Threads", gives the
 commands that make them); the others run as they are. On a machine with more cores, pass
@@ -25,8 +28,6 @@ FUNNEL = os.path.join(ROOT, "examples", "funnel", "funnel.yaml")
 POWDER = os.path.join(ROOT, "examples", "powder_bed", "powder_bed.yaml")
 FAST = os.path.join(ROOT, "examples", "powder_bed", "fast.yaml")
 REDUCED = os.path.join(ROOT, "examples", "powder_bed", "powder_bed_reduced.yaml")
-# the reduced bed's heap twelve times across: 9 600 spheres, about 8 500 contacts when settling
-PILE_X12 = ["--set", "generators[0].copies_across=12"]
 # the pile at 0.06 s holds a few overlaps deeper than a restart accepts (a step at the cap):
 # the check is switched off, the state taken as it is
 FUNNEL_50K = ["--set", "generators[0].count=50000", "--set", "generators[0].orifice=0.0803",
@@ -48,9 +49,10 @@ def cases(args):
                                           "--set-file", FAST]
     if args.pile_state:
         for scheme in ("moreau-jean", "catching-up"):
-            out[f"pile_9600 {scheme}"] = [
-                REDUCED, "--scheme", scheme, *PILE_X12, "--initial-state", args.pile_state,
-                "--t-end", "0.0122", "--set", "scheme.coulomb.tolerance=1e-6"]
+            out[f"pile_{800 * args.pile_copies} {scheme}"] = [
+                REDUCED, "--scheme", scheme, "--set",
+                f"generators[0].copies_across={args.pile_copies}", "--initial-state",
+                args.pile_state, "--t-end", "0.0122", "--set", "scheme.coulomb.tolerance=1e-6"]
     if args.wide_state:
         out["wide bed moreau-jean"] = [POWDER, "--initial-state", args.wide_state,
                                        "--set-file", FAST,
@@ -82,6 +84,8 @@ def main():
     parser.add_argument("--powder-state")
     parser.add_argument("--wide-state")
     parser.add_argument("--pile-state")
+    parser.add_argument("--pile-copies", type=int, default=12,
+                        help="copies of the reduced bed's heap in --pile-state (12: 9 600 spheres)")
     args = parser.parse_args()
     chosen = cases(args)
     if args.cases:
@@ -91,21 +95,38 @@ def main():
     print(f"| case | 1 thread: wall (s) | {n} threads: wall (s) | speed-up | "
           f"detect / assemble / solve / update (s), 1 thread | same bits |")
     print("|---|---|---|---|---|---|")
+    fractions = []
     for name, argv in chosen.items():
         best = {1: float("inf"), n: float("inf")}
-        split = {}
+        split, least = {}, {}
         for k in range(args.repeat):
             for threads in (1, n):
                 out = os.path.join(scratch, f"{name.replace(' ', '_')}_{threads}")
                 wall, parts = run(args.sweep, argv, out, threads)
                 best[threads] = min(best[threads], wall)
                 split.setdefault(threads, parts)
+                least[threads] = [min(a, b) for a, b in zip(least.get(threads, parts), parts)]
+        fractions.append((name, least, best))
         same = filecmp.cmp(os.path.join(scratch, f"{name.replace(' ', '_')}_1", "final_state.csv"),
                            os.path.join(scratch, f"{name.replace(' ', '_')}_{n}",
                                         "final_state.csv"), shallow=False)
         parts = " / ".join(f"{x:.2f}" for x in split[1])
         print(f"| {name} | {best[1]:.3f} | {best[n]:.3f} | {best[1] / best[n]:.2f} | {parts} | "
               f"{'yes' if same else 'NO'} |", flush=True)
+    print(f"\n| case | stage | 1 thread (s) | {n} threads (s) | speed-up | serial fraction | "
+          "predicted on 16 threads |")
+    print("|---|---|---|---|---|---|---|")
+    for name, least, best in fractions:
+        stages = ["detect", "assemble", "solve", "update"]
+        rows = list(zip(stages, least[1], least[n])) + [("step (wall)", best[1], best[n])]
+        for stage, one, many in rows:
+            if one <= 0.0 or many <= 0.0:
+                continue
+            speedup = one / many
+            serial = min(max((n / speedup - 1.0) / (n - 1.0), 0.0), 1.0)
+            predicted = 1.0 / (serial + (1.0 - serial) / 16.0)
+            print(f"| {name} | {stage} | {one:.3f} | {many:.3f} | {speedup:.2f} | {serial:.3f} | "
+                  f"{predicted:.1f} |")
 
 
 if __name__ == "__main__":
