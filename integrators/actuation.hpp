@@ -34,11 +34,14 @@ struct StepModel;
 struct StepData;
 
 // What Python sets between steps (TimeStepper::command); NaN: the actuator's own table.
-// A commanded position without a commanded velocity aims at rest (v_ref = 0).
+// A commanded position without a commanded velocity aims at rest (v_ref = 0). A prescribed
+// joint commanded a position P (and a velocity V, else 0) moves as q(t) = P + V (t - time) from
+// the step after the command, `time` the command's.
 struct ActuatorCommand {
   double torque = std::numeric_limits<double>::quiet_NaN();
   double position = std::numeric_limits<double>::quiet_NaN();
   double velocity = std::numeric_limits<double>::quiet_NaN();
+  double time = 0.0;  // set by TimeStepper::command
 };
 
 namespace stepping {

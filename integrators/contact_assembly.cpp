@@ -218,6 +218,15 @@ void ProblemAssembly::appendJointLimits() {
   }
 }
 
+const ActuatorCommand* ProblemAssembly::commandedMotion(int constraint) const {
+  if (commands == nullptr) return nullptr;
+  for (std::size_t a = 0; a < model.actuators.size() && a < commands->size(); ++a)
+    if (model.actuators[a].prescribed && model.actuators[a].constraint == constraint &&
+        !std::isnan((*commands)[a].position))
+      return &(*commands)[a];
+  return nullptr;
+}
+
 void ProblemAssembly::appendConstraints() {
   const int limit_count = static_cast<int>(model.limits.size());
   for (int k = 0; k < static_cast<int>(model.constraints.size()); ++k) {
@@ -230,8 +239,14 @@ void ProblemAssembly::appendConstraints() {
     // whole drift at once (1 / tau) would make the midpoint update ring: v_{k+1} = -v_k.
     Vector3 known = Vector3::Zero();
     if (f.drive) {
-      const double rate = (f.drive(t + tau) - f.drive(t - tau)) / (2.0 * tau);
-      known.x() = -(rate + (f.drive(t + tau) - gap - tau * rate) / (2.0 * tau));
+      const ActuatorCommand* command = commandedMotion(k);
+      auto drive = [&](double at) {
+        if (command == nullptr) return f.drive(at);
+        const double velocity = std::isnan(command->velocity) ? 0.0 : command->velocity;
+        return command->position + velocity * (at - command->time);
+      };
+      const double rate = (drive(t + tau) - drive(t - tau)) / (2.0 * tau);
+      known.x() = -(rate + (drive(t + tau) - gap - tau * rate) / (2.0 * tau));
       gap = 0.0;
     }
     const auto direction = [&](const std::function<VectorX(const VectorX&)>& of, const char* what) {
@@ -309,9 +324,10 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                             const ContactData& cdata, double t, NormalLaw law, double tau,
                             const VectorX& q_m, const VectorX& v_start, ContactProblem& p,
                             ContactProblemWorkspace& ws, const VectorX* v_free,
-                            const std::vector<char>* deferred, int threads) {
-  ProblemAssembly{model, data, cmodel, cdata, t, law, tau, q_m, v_start, p, ws, v_free}.run(
-      deferred, threads);
+                            const std::vector<char>* deferred, int threads,
+                            const std::vector<ActuatorCommand>* commands) {
+  ProblemAssembly{model, data, cmodel, cdata, t, law, tau, q_m, v_start, p, ws, v_free, commands}
+      .run(deferred, threads);
 }
 
 }  // namespace sweep

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "contact/detection.hpp"
+#include "integrators/actuation.hpp"
 #include "integrators/contact_problem.hpp"
 
 namespace sweep {
@@ -26,6 +27,9 @@ struct ProblemAssembly {
   ContactProblem& p;
   ContactProblemWorkspace& ws;
   const VectorX* v_free;
+  // Python's commands by actuator (null: none): a prescribed joint's commanded motion replaces
+  // its constraint's drive (integrators/actuation.hpp)
+  const std::vector<ActuatorCommand>* commands = nullptr;
   const ContactJacobian& J = cdata.jacobian;
   int rhs_columns = cdata.jacobian.rolling ? 5 : 3;
 
@@ -66,6 +70,8 @@ struct ProblemAssembly {
 
   // constraints by functions (Model::constraints): gap, normal and tangents at q_m
   void appendConstraints();
+  // the command that replaces constraint k's drive, or null
+  const ActuatorCommand* commandedMotion(int constraint) const;
 
   // the rows of two components or fewer joined (the others were, as they were made), then
   // islands numbered in order of their first row: deterministic

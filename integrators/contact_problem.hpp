@@ -14,6 +14,8 @@
 
 namespace sweep {
 
+struct ActuatorCommand;  // integrators/actuation.hpp
+
 struct Contact;
 struct ContactData;
 struct ContactModel;
@@ -489,7 +491,8 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                             const ContactData& cdata, double t, NormalLaw law, double tau,
                             const VectorX& q_m, const VectorX& v_start, ContactProblem& problem,
                             ContactProblemWorkspace& workspace, const VectorX* v_free = nullptr,
-                            const std::vector<char>* deferred = nullptr, int threads = 1);
+                            const std::vector<char>* deferred = nullptr, int threads = 1,
+                            const std::vector<ActuatorCommand>* commands = nullptr);
 
 // The normal law's offset on U_N(k+1): U*_N = U_N(k+1) + normalBias(...) >= 0 for a contact
 // in the index set, with u_start = U_N(k) and the gap at q_m.

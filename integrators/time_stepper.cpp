@@ -456,7 +456,7 @@ void assembleProblem(const StepModel& m, StepData& d) {
   assembleContactProblem(m.model, d.model_data, m.cmodel, d.contact_data, d.t + 0.5 * m.settings.h,
                          m.settings.normal_law, 0.5 * m.settings.h, d.q_m, d.v, d.problem,
                          d.problem_ws, &d.v_free, d.deferred.empty() ? nullptr : &d.deferred,
-                         m.threads);
+                         m.threads, d.actuator_command.empty() ? nullptr : &d.actuator_command);
   const int n = d.problem.size();
   d.stats.active = n;
   d.stats.islands = d.problem.islandCount();

@@ -58,7 +58,8 @@ class TimeStepper {
   double energy();  // kinetic + potential at the current state
   // a command to actuator a (Model::actuators), held until the next; its NaN entries leave the
   // actuator's own tables in force (integrators/actuation.hpp)
-  void command(int actuator, const ActuatorCommand& command) {
+  void command(int actuator, ActuatorCommand command) {
+    command.time = d_.t;
     d_.actuator_command.at(static_cast<std::size_t>(actuator)) = command;
   }
   // the torque (force) each actuator applied over the last step

@@ -732,15 +732,26 @@ PYBIND11_MODULE(sweep, m) {
                 if (value && !std::isfinite(*value))
                   throw InputError(where + ": " + name + " = " + exactNumber(*value) +
                                    " must be finite");
-              if (actuators[a].prescribed)
-                throw InputError(where + ": the joint's motion is prescribed by the scene");
+              constexpr double none = std::numeric_limits<double>::quiet_NaN();
+              if (actuators[a].prescribed) {
+                // its motion from the next step: q(t) = position + velocity (t - now)
+                if (torque)
+                  throw InputError(where +
+                                   ": the joint's motion is prescribed: command a position "
+                                   "and a velocity, not a torque");
+                const double q_now = s.stepper().q()[actuators[a].q_index];
+                s.stepper().command(
+                    static_cast<int>(a),
+                    ActuatorCommand{none, position || velocity ? position.value_or(q_now) : none,
+                                    velocity.value_or(none)});
+                return;
+              }
               if ((position || velocity) && !actuators[a].servo())
                 throw InputError(where +
                                  ": the actuator has no servo gains (kp, kd) to follow "
                                  "a position or velocity");
               if (position && actuators[a].kp == 0.0)
                 throw InputError(where + ": a position needs kp > 0");
-              constexpr double none = std::numeric_limits<double>::quiet_NaN();
               s.stepper().command(static_cast<int>(a),
                                   ActuatorCommand{torque.value_or(none), position.value_or(none),
                                                   velocity.value_or(none)});
@@ -752,7 +763,10 @@ PYBIND11_MODULE(sweep, m) {
           py::arg("velocity") = py::none(),
           "Commands the actuator of `joint` from the next step on, until the next command: a "
           "motor torque (force), and a servo's target position and velocity. What is left "
-          "out (None) follows the scene's tables; a position without a velocity aims at rest.")
+          "out (None) follows the scene's tables; a position without a velocity aims at rest. "
+          "A prescribed joint moves as q(t) = position + velocity (t - now) (position: "
+          "its q now when left out; velocity: 0); command(joint) alone hands it back to its "
+          "table.")
       .def(
           "actuator_torques",
           [](const Simulation& s) {

@@ -222,6 +222,30 @@ class Actuators(unittest.TestCase):
         sim.run(t_end=2.0)
         self.assertAlmostEqual(sim.q[0], 0.0, delta=1e-6)
 
+    def test_a_prescribed_joint_takes_a_commanded_motion(self):
+        # the turntable prescribed to rest at 0; commanded to turn at 2 rad/s from where it is,
+        # then handed back to its table (which the constraint reaches within two steps)
+        for scheme in ("moreau-jean", "catching-up"):
+            sim = self.turntable({"prescribed": 0.0}, scheme)
+            sim.run(t_end=0.1)
+            self.assertAlmostEqual(sim.q[0], 0.0, delta=1e-12)
+            sim.command("spin", velocity=2.0)  # from its q now
+            sim.run(t_end=0.6)
+            self.assertAlmostEqual(sim.q[0], 2.0 * 0.5, delta=1e-9)
+            self.assertAlmostEqual(sim.v[0], 2.0, delta=1e-9)
+            # turning at a constant rate on a frictionless axis: no torque past the start
+            self.assertAlmostEqual(sim.actuator_torques()[0], 0.0, delta=1e-6)
+            sim.command("spin", position=0.25)  # held there
+            sim.run(t_end=0.7)
+            self.assertAlmostEqual(sim.q[0], 0.25, delta=1e-9)
+            self.assertAlmostEqual(sim.v[0], 0.0, delta=1e-9)
+            sim.command("spin")
+            sim.run(t_end=0.8)
+            self.assertAlmostEqual(sim.q[0], 0.0, delta=1e-9)
+            with self.assertRaises(sweep.InputError) as error:
+                sim.command("spin", torque=1.0)
+            self.assertIn("not a torque", str(error.exception))
+
     def test_names_of_joints_bodies_and_contacts(self):
         sim = sweep.Simulation(os.path.join(SOURCE, "examples/archetypes/arm_pushes_blocks.yaml"),
                                scheme="catching-up")
