@@ -73,9 +73,7 @@ class SnapshotReader {
   Snapshot read(double time) {
     Snapshot s;
     s.time = time;
-    const std::size_t piece = text_.find("<Piece ");
-    if (text_.find("<VTKFile type=\"PolyData\"") == std::string::npos || piece == std::string::npos)
-      fail("VTKFile", "is not a PolyData file");
+    const std::size_t piece = pieceAt();
     const std::string piece_tag = text_.substr(piece, text_.find('>', piece) - piece);
     const long n = count(piece_tag, "NumberOfPoints");
     const std::size_t field = text_.find("Name=\"dimension\"");
@@ -119,9 +117,7 @@ class SnapshotReader {
   // x1, y1, z1, x2, y2, z2 and the contact's force magnitude, into `chains`; the magnitudes
   // also into `forces`.
   void readChains(std::vector<float>& chains, std::vector<double>& forces) {
-    const std::size_t piece = text_.find("<Piece ");
-    if (text_.find("<VTKFile type=\"PolyData\"") == std::string::npos || piece == std::string::npos)
-      fail("VTKFile", "is not a PolyData file");
+    const std::size_t piece = pieceAt();
     const std::string piece_tag = text_.substr(piece, text_.find('>', piece) - piece);
     const long n = count(piece_tag, "NumberOfPoints");
     std::vector<double> points, force;
@@ -145,6 +141,14 @@ class SnapshotReader {
   }
 
  private:
+  // where the PolyData's piece starts
+  std::size_t pieceAt() const {
+    const std::size_t piece = text_.find("<Piece ");
+    if (text_.find("<VTKFile type=\"PolyData\"") == std::string::npos || piece == std::string::npos)
+      fail("VTKFile", "is not a PolyData file");
+    return piece;
+  }
+
   [[noreturn]] void fail(const std::string& field, const std::string& message) const {
     throw InputError(file_ + ": " + field + ": " + message);
   }
@@ -363,7 +367,7 @@ namespace {
 std::vector<std::pair<double, std::string>> collectionEntries(const std::filesystem::path& path,
                                                               const std::string& results_dir) {
   namespace fs = std::filesystem;
-  const std::string pvd = readWhole(path, kMaxCollectionBytes, "snapshot collection");
+  const std::string pvd = readWhole(path, kMaxCollectionBytes, "collection");
   std::vector<std::pair<double, std::string>> entries;
   for (std::size_t at = pvd.find("<DataSet "); at != std::string::npos;
        at = pvd.find("<DataSet ", at + 1)) {
@@ -396,10 +400,11 @@ int pageEvery(const ViewerOptions& options, const std::filesystem::path& dir,
   double bounds[6] = {0, 0, 0, 0, 0, 0};
   const Frame f = frameOf(reader.read(entries.front().first), speeds, forces, bounds);
   std::vector<float> chains;
+  std::vector<double> chain_forces;
   if (!networks.empty()) {
     const std::string last = (dir / networks.back().second).string();
     SnapshotReader(last, readWhole(last, kMaxSnapshotBytes, "contact network"))
-        .readChains(chains, forces);
+        .readChains(chains, chain_forces);
   }
   const double floats =
       static_cast<double>(f.balls.size() + f.lines.size() + f.polygon_sizes.size() +
