@@ -9,6 +9,7 @@
 
 #include "contact/fcl_scene.hpp"
 #include "contact/narrowphase_analytic.hpp"
+#include "contact/narrowphase_mesh.hpp"
 #include "contact/pair_search.hpp"
 #include "framework/parallel.hpp"
 
@@ -71,10 +72,14 @@ ContactData& ContactData::operator=(ContactData&&) noexcept = default;
 namespace {
 
 // FCL 0.7 answers a sphere against a triangle mesh with a negative depth and witness points in
-// the shapes' own frames; Sweep's closed form takes the pair on every path.
-bool meshAndSphere(const Shape& a, const Shape& b) {
-  return (a.type == ShapeType::TriangleMesh && b.type == ShapeType::Sphere) ||
-         (b.type == ShapeType::TriangleMesh && a.type == ShapeType::Sphere);
+// the shapes' own frames, and a box or capsule with one point per triangle; Sweep's closed
+// forms take these pairs on every path.
+bool meshClosedForm(const Shape& a, const Shape& b) {
+  auto held = [](ShapeType t) {
+    return t == ShapeType::Sphere || t == ShapeType::Box || t == ShapeType::Capsule;
+  };
+  return (a.type == ShapeType::TriangleMesh && held(b.type)) ||
+         (b.type == ShapeType::TriangleMesh && held(a.type));
 }
 
 // The closed forms take the pair in one order (container first, ball second); `flipped`
@@ -82,7 +87,10 @@ bool meshAndSphere(const Shape& a, const Shape& b) {
 void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& pb, double margin,
                   std::vector<ContactPoint>& out) {
   const std::size_t first = out.size();
-  const bool flipped = isUnbounded(sb) || (isBall(sa.type) && !isBall(sb.type));
+  const bool flipped =
+      isUnbounded(sb) ||
+      (!isUnbounded(sa) && ((isBall(sa.type) && !isBall(sb.type)) ||
+                            (sb.type == ShapeType::TriangleMesh && sa.type != sb.type)));
   const Shape& s1 = flipped ? sb : sa;
   const Shape& s2 = flipped ? sa : sb;
   const Pose& p1 = flipped ? pb : pa;
@@ -104,10 +112,15 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
     case ShapeType::Box:
       out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
       break;
-    case ShapeType::TriangleMesh:  // FCL's sphere-mesh pair is not used: see meshBall
+    case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see meshClosedForm
       if (s2.type == ShapeType::Sphere)
         meshBall(p1, *s1.mesh, p2.translation, s2.radius, margin,
                  [&](const ContactPoint& c) { out.push_back(c); });
+      else if (s2.type == ShapeType::Box)
+        meshBox(p1, *s1.mesh, p2, s2.half_extents, margin, out);
+      else if (s2.type == ShapeType::Capsule)
+        meshCapsule(p1, *s1.mesh, p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
+                    p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
       break;
     case ShapeType::Capsule:  // a segment along the local z axis, rounded by the radius
       out.push_back(segmentBall(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
@@ -222,7 +235,7 @@ void narrowphasePair(const Model& model, const ContactModel& cmodel, const Conta
   } else {
     points.clear();
     if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
-        meshAndSphere(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
+        meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], margin, points);
     else
@@ -416,7 +429,7 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     }
     cdata.points.clear();
     if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
-        meshAndSphere(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
+        meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], far, cdata.points);
     else

@@ -1,6 +1,9 @@
 #include "contact/mesh_io.hpp"
 
+#include <array>
 #include <cmath>
+#include <map>
+#include <vector>
 
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -64,6 +67,21 @@ std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Ve
   };
   visit(scene->mRootNode, aiMatrix4x4());
   if (mesh->triangles.empty()) throw InputError(path + ": mesh has no triangles");
+  // assimp joins only vertices equal in every attribute, and an STL facet's normal is one:
+  // vertices at one position become one here, or a curved surface would have no shared edge
+  std::map<std::array<double, 3>, int> index;
+  std::vector<int> merged(mesh->vertices.size());
+  std::vector<Vector3> vertices;
+  for (std::size_t i = 0; i < mesh->vertices.size(); ++i) {
+    const Vector3& p = mesh->vertices[i];
+    const auto [it, fresh] = index.emplace(std::array<double, 3>{p.x(), p.y(), p.z()},
+                                           static_cast<int>(vertices.size()));
+    if (fresh) vertices.push_back(p);
+    merged[i] = it->second;
+  }
+  for (auto& triangle : mesh->triangles)
+    for (int& v : triangle) v = merged[v];
+  mesh->vertices = std::move(vertices);
   return mesh;
 }
 

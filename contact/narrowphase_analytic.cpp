@@ -13,6 +13,8 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
     case T::Box:
     case T::Capsule:
       return a == T::Sphere;
+    case T::TriangleMesh:
+      return a == T::Sphere || a == T::Box || a == T::Capsule;  // narrowphase_mesh.hpp
     case T::HalfSpace:
       return a == T::Sphere || a == T::Box || a == T::Capsule || a == T::Cylinder ||
              a == T::ConvexMesh;

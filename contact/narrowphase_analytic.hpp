@@ -55,6 +55,13 @@ template <class Emit>
 void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
               double margin, Emit&& emit);
 
+// meshBall for a point of a convex shape rounded by `radius` (0 for a box's corner): a face
+// pushes it back to the front while it is less than `depth` behind (a ball's radius, a box's
+// least half extent).
+template <class Emit>
+void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
+               double depth, double margin, Emit&& emit);
+
 // Half-space against a convex shape or triangle mesh at `pose`: one contact point per vertex
 // (box, polygon, mesh), per end (segment, capsule: rounded ends) or per cap rim (cylinder)
 // whose gap is below `margin`, feature = that vertex or end. Calls emit(ContactPoint).

@@ -1,5 +1,7 @@
 #pragma once
 // Template part of narrowphase_analytic.hpp.
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace sweep {
@@ -51,26 +53,52 @@ inline int closestFeature(const TriangleMesh& mesh, int t, const Vector3& x) {
   return feature;
 }
 
+// Whether the solid behind triangles t and u is their half-spaces' intersection near both (a
+// ridge, a rim, a slab's two sides; coplanar counts): each lies behind or on the other's plane.
+inline bool mutuallyConvex(const TriangleMesh& mesh, int t, int u) {
+  auto behind = [&](int of, int plane) {
+    const Vector3& origin = mesh.vertices[mesh.triangles[plane][0]];
+    for (int v : mesh.triangles[of]) {
+      const Vector3 w = mesh.vertices[v] - origin;
+      if (mesh.normals[plane].dot(w) > 1e-9 * w.norm()) return false;
+    }
+    return true;
+  };
+  return behind(t, u) && behind(u, t);
+}
+
 }  // namespace detail
 
 template <class Emit>
 void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
               double margin, Emit&& emit) {
+  meshPoint(pose, mesh, center, radius, radius, margin, emit);
+}
+
+template <class Emit>
+void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center, double radius,
+               double depth, double margin, Emit&& emit) {
   const Vector3 x = pose.rotation.transpose() * (center - pose.translation);  // mesh frame
   const int triangles = static_cast<int>(mesh.triangles.size());
   const double reach = radius + margin;
+  // A point behind faces is pushed out through each, except through a face of a convex
+  // junction (a rim, a slab's far side) where a shallower one leaves the solid: held here.
+  constexpr int kHeld = 8;
+  std::array<ContactPoint, kHeld> behind;
+  std::array<int, kHeld> behind_triangle{};
+  int behind_count = 0;
   for (int t = 0; t < triangles; ++t) {
     const auto& tri = mesh.triangles[t];
     const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
                   &c = mesh.vertices[tri[2]];
     const Vector3& n = mesh.normals[t];
     const double side = n.dot(x - a);
-    if (side > reach || side < -radius) continue;  // beyond the margin, or behind the surface
+    if (side > reach || side < -depth) continue;  // beyond the margin, or behind the surface
     int feature = 0;
     const Vector3 p = detail::closestOnTriangle(x, a, b, c, feature);
     const Vector3 d = x - p;
     const double distance = d.norm();
-    if (distance - radius >= margin) continue;
+    if ((feature == 0 ? side : distance) - radius >= margin) continue;  // a point's side is signed
     Vector3 normal = n;
     double gap = side - radius;
     int id = t;
@@ -104,7 +132,7 @@ void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center,
         if (!lowest || !closest) continue;
         id = 4 * triangles + v;
       }
-      if (distance > 1e-12 * radius) {
+      if (distance > 1e-12 * std::max(radius, depth)) {
         normal = d / distance;
         gap = distance - radius;
       }
@@ -115,7 +143,19 @@ void meshBall(const Pose& pose, const TriangleMesh& mesh, const Vector3& center,
     contact.point_a = pose.apply(p);
     contact.point_b = center - radius * contact.normal;
     contact.feature = id;
-    emit(contact);
+    if (feature == 0 && side < 0.0 && behind_count < kHeld) {
+      behind[behind_count] = contact;
+      behind_triangle[behind_count++] = t;
+    } else {
+      emit(contact);
+    }
+  }
+  for (int i = 0; i < behind_count; ++i) {
+    bool shallower_exit = false;
+    for (int j = 0; j < behind_count && !shallower_exit; ++j)
+      shallower_exit = behind[j].gap > behind[i].gap &&
+                       detail::mutuallyConvex(mesh, behind_triangle[i], behind_triangle[j]);
+    if (!shallower_exit) emit(behind[i]);
   }
 }
 

@@ -105,6 +105,32 @@ void buildMeshTopology(TriangleMesh& mesh) {
   for (int t = 0; t < triangles; ++t)
     for (int v : mesh.triangles[t])
       if (v >= 0 && v < n) mesh.around[fill[v]++] = t;
+  // an edge bends by where the triangle across it puts its third vertex: behind this
+  // triangle's plane (convex), in it (flat, to 1e-9 of the distance) or in front (concave)
+  mesh.edge_kind.assign(triangles, {1, 1, 1});
+  for (int t = 0; t < triangles; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int other = mesh.across[t][k];
+      if (other < 0) continue;
+      const auto& o = mesh.triangles[other];
+      const int v0 = mesh.triangles[t][k], v1 = mesh.triangles[t][(k + 1) % 3];
+      int third = o[0];
+      for (int v : o)
+        if (v != v0 && v != v1) third = v;
+      const Vector3 w = mesh.vertices[third] - mesh.vertices[v0];
+      const double side = mesh.normals[t].dot(w);
+      mesh.edge_kind[t][k] = side < -1e-9 * w.norm() ? 1 : (side > 1e-9 * w.norm() ? -1 : 0);
+    }
+  std::vector<signed char> lowest(n, 1), highest(n, -1);
+  for (int t = 0; t < triangles; ++t)
+    for (int k = 0; k < 3; ++k)
+      for (int v : {mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]}) {
+        if (v < 0 || v >= n) continue;
+        lowest[v] = std::min(lowest[v], mesh.edge_kind[t][k]);
+        highest[v] = std::max(highest[v], mesh.edge_kind[t][k]);
+      }
+  mesh.vertex_convex.assign(n, 0);
+  for (int v = 0; v < n; ++v) mesh.vertex_convex[v] = lowest[v] >= 0 && highest[v] > 0;
 }
 
 Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {

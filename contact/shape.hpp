@@ -40,6 +40,11 @@ struct TriangleMesh {
   std::vector<Vector3> normals;
   std::vector<std::array<int, 3>> across;
   std::vector<int> around_start, around;
+  // Per edge (k, k+1) of each triangle: +1 convex (a ridge, or a boundary: a rim), 0 flat, -1
+  // concave (a valley); per vertex: whether it can poke into a flat face (no concave edge
+  // around it, and at least one convex one). Closed forms against boxes and capsules use them.
+  std::vector<std::array<signed char, 3>> edge_kind;
+  std::vector<char> vertex_convex;
 };
 
 // Fills normals, across and around (a non-manifold edge keeps its first neighbour).

@@ -1,5 +1,6 @@
 // The closed forms of the analytic path against FCL, on randomized configurations.
 #include "contact/narrowphase_analytic.hpp"
+#include "contact/narrowphase_mesh.hpp"
 
 #include <fcl/fcl.h>
 #include <gtest/gtest.h>
@@ -237,6 +238,103 @@ TEST(MeshBall, FacesRidgesAndValleysGiveTheirOwnContacts) {
     EXPECT_NEAR(c.gap, 0.14 / std::sqrt(2.0) - r, 1e-15);
   }
   EXPECT_LT(valley[0].normal.x() * valley[1].normal.x(), 0.0);
+}
+
+// A square pyramid: apex at the origin, base corners (+-1, +-1, -1), front outward.
+std::shared_ptr<const TriangleMesh> pyramid() {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = {{0, 0, 0}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, -1}, {1, -1, -1}};
+  mesh->triangles = {{0, 4, 1}, {0, 1, 2}, {0, 2, 3}, {0, 3, 4}};
+  return Shape::triangleMesh(mesh).mesh;
+}
+
+// A closed slab [-1, 1] x [-1, 1] x [-0.2, 0], front outward.
+std::shared_ptr<const TriangleMesh> slab() {
+  auto mesh = std::make_shared<TriangleMesh>();
+  for (int k = 0; k < 8; ++k)
+    mesh->vertices.emplace_back((k & 1) ? 1.0 : -1.0, (k & 2) ? 1.0 : -1.0, (k & 4) ? 0.0 : -0.2);
+  mesh->triangles = {{4, 5, 7}, {4, 7, 6}, {0, 2, 3}, {0, 3, 1}, {0, 1, 5}, {0, 5, 4},
+                     {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  return Shape::triangleMesh(mesh).mesh;
+}
+
+std::vector<ContactPoint> meshBoxContacts(const TriangleMesh& mesh, const Vector3& center,
+                                          const Vector3& half_extents, double margin) {
+  std::vector<ContactPoint> out;
+  Pose box;
+  box.translation = center;
+  meshBox(Pose::identity(), mesh, box, half_extents, margin, out);
+  return out;
+}
+
+// Every contact 1 cm deep along +z, at the given points in any order.
+void expectUpwardAt(const std::vector<ContactPoint>& contacts, std::vector<Vector3> points) {
+  ASSERT_EQ(contacts.size(), points.size());
+  for (const ContactPoint& c : contacts) {
+    EXPECT_NEAR(c.gap, -0.01, 1e-15);
+    EXPECT_NEAR((c.normal - Vector3::UnitZ()).norm(), 0.0, 1e-14);
+    EXPECT_NEAR((c.point_b - c.point_a - c.gap * c.normal).norm(), 0.0, 1e-15);
+    const auto at = std::find_if(points.begin(), points.end(),
+                                 [&](const Vector3& p) { return (p - c.point_a).norm() < 1e-12; });
+    ASSERT_NE(at, points.end()) << c.point_a.transpose();
+    points.erase(at);
+  }
+}
+
+// A box 1 cm into a mesh: its four corners on a flat patch, the two edges that cross a ridge
+// (and nothing from its corners over the slopes), a pyramid's apex under its face, and on a
+// closed slab's rim its two corners inside and its edges over the rim, not the slab's side.
+TEST(MeshBox, CornersOnFacesEdgesAcrossRidgesAndPeaksUnderFaces) {
+  const Vector3 half(0.1, 0.1, 0.1);
+  expectUpwardAt(meshBoxContacts(*foldedSquares(0.0), Vector3(0.3, 0.2, 0.09), half, 0.01),
+                 {{0.2, 0.1, 0}, {0.4, 0.1, 0}, {0.2, 0.3, 0}, {0.4, 0.3, 0}});
+  expectUpwardAt(meshBoxContacts(*foldedSquares(-0.5), Vector3(0.0, 0.2, 0.09), half, 0.01),
+                 {{0, 0.1, 0}, {0, 0.3, 0}});
+  expectUpwardAt(meshBoxContacts(*pyramid(), Vector3(0.02, 0.03, 0.09), half, 0.01), {{0, 0, 0}});
+  expectUpwardAt(meshBoxContacts(*slab(), Vector3(0.97, 0.1, 0.09), half, 0.01),
+                 {{0.87, 0.0, 0}, {0.87, 0.2, 0}, {1, 0.0, 0}, {1, 0.2, 0}});
+  // turned about z over the rim: still the corners on the top and two edge crossings
+  Pose turned;
+  turned.rotation = Eigen::AngleAxisd(0.5, Vector3::UnitZ()).toRotationMatrix();
+  turned.translation = Vector3(0.97, 0.1, 0.09);
+  std::vector<ContactPoint> out;
+  meshBox(Pose::identity(), *slab(), turned, half, 0.01, out);
+  int under = 0;  // two corners over the top, two bottom edges across the rim
+  for (const ContactPoint& c : out) {
+    if (c.gap >= 0.0) continue;  // a corner just past the rim, 0.0098 from the side: in front
+    ++under;
+    EXPECT_NEAR(c.gap, -0.01, 1e-15);
+    EXPECT_NEAR((c.normal - Vector3::UnitZ()).norm(), 0.0, 1e-14);
+  }
+  EXPECT_EQ(under, 4);
+  EXPECT_EQ(out.size(), 5u);
+  // apart by more than the margin: nothing
+  EXPECT_TRUE(meshBoxContacts(*slab(), Vector3(0.3, 0.2, 0.12), half, 0.01).empty());
+}
+
+// A capsule (radius 0.02) 1 cm into a mesh, lying along x: its ends on a flat patch, its side
+// on a ridge and on a pyramid's apex.
+TEST(MeshCapsule, EndsOnFacesSideOnRidgesAndPeaks) {
+  const double r = 0.02;
+  auto capsule = [&](const TriangleMesh& mesh, const Vector3& center) {
+    std::vector<ContactPoint> out;
+    meshCapsule(Pose::identity(), mesh, center - Vector3(0.1, 0, 0), center + Vector3(0.1, 0, 0), r,
+                0.01, out);
+    return out;
+  };
+  expectUpwardAt(capsule(*foldedSquares(0.0), Vector3(0.3, 0.2, r - 0.01)),
+                 {{0.2, 0.2, 0}, {0.4, 0.2, 0}});
+  expectUpwardAt(capsule(*foldedSquares(-0.5), Vector3(0.0, 0.2, r - 0.01)), {{0, 0.2, 0}});
+  expectUpwardAt(capsule(*pyramid(), Vector3(0.03, 0.0, r - 0.01)), {{0, 0, 0}});
+}
+
+// A ball crossing a closed slab's top near its rim is pushed back up, not out through the
+// side it is also behind.
+TEST(MeshBall, APointInsideASolidLeavesThroughItsNearestFace) {
+  const auto c = meshBallContacts(*slab(), Vector3(0.97, 0.1, 0.01), 0.02, 0.01);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_NEAR(c[0].gap, -0.01, 1e-15);
+  EXPECT_EQ(c[0].normal, Vector3::UnitZ());
 }
 
 }  // namespace

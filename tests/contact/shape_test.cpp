@@ -105,6 +105,20 @@ TEST(MeshIo, ReadsAsciiStlAndMergesVertices) {
   EXPECT_EQ(cube->vertices.size(), 8u);
   for (const Vector3& p : cube->vertices) EXPECT_DOUBLE_EQ(p.cwiseAbs().maxCoeff(), 1.0);
   EXPECT_EQ(buildError(Shape::convexMesh(cube)), "");
+  // facets with their own normals (a curved surface): still one vertex per position, so that
+  // the bowl's only unshared edges are its rim's 16
+  const auto bowl = Shape::triangleMesh(loadTriangleMesh(dataPath("meshes/bowl.stl"))).mesh;
+  EXPECT_EQ(bowl->vertices.size(), 129u);
+  int rim = 0, ridges = 0, valleys = 0;
+  for (std::size_t t = 0; t < bowl->triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      rim += bowl->across[t][k] < 0;
+      ridges += bowl->across[t][k] >= 0 && bowl->edge_kind[t][k] > 0;
+      valleys += bowl->edge_kind[t][k] < 0;
+    }
+  EXPECT_EQ(rim, 16);
+  EXPECT_EQ(ridges + valleys, 3 * 240 - 16);
+  EXPECT_GT(valleys, ridges);  // a quad of a sphere split in two folds along its diagonal
 }
 
 TEST(MeshIo, MissingOrEmptyFileNamesTheFile) {
