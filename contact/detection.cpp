@@ -428,10 +428,11 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
       continue;
     }
     cdata.points.clear();
-    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
-        meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
+    // a mesh pair within an unbounded margin is every triangle's feature: its overlaps only
+    const bool mesh = meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape);
+    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded || mesh)
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
-                   cdata.geometry_pose[b], far, cdata.points);
+                   cdata.geometry_pose[b], mesh ? 0.0 : far, cdata.points);
     else
       cdata.fcl->narrowphase(a, b, far, cdata.points);
     // every contact of this pair takes the gap of its feature

@@ -113,7 +113,8 @@ inline void detectContacts(const Model& model, const Data& data, const ContactMo
 
 // Gaps of the contacts of the last detection, re-evaluated on the true geometry at the
 // configuration in `data` (after forwardKinematics) and time t: the end-of-step penetration
-// max(0, -gap) of the diagnostics. A feature that left the narrowphase gets +inf.
+// max(0, -gap) of the diagnostics. A feature that left the narrowphase gets +inf, and so does
+// a triangle mesh's feature that does not overlap.
 void evaluateContactGaps(const Model& model, const Data& data, const ContactModel& cmodel,
                          ContactData& cdata, double t, std::vector<double>& gaps);
 

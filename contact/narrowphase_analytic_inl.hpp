@@ -87,29 +87,30 @@ void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center
   std::array<ContactPoint, kHeld> behind;
   std::array<int, kHeld> behind_triangle{};
   int behind_count = 0;
-  for (int t = 0; t < triangles; ++t) {
+  const Vector3 box = Vector3::Constant(std::max(reach, depth));
+  mesh.forEachTriangleIn(x - box, x + box, [&](int t) {
     const auto& tri = mesh.triangles[t];
     const Vector3 &a = mesh.vertices[tri[0]], &b = mesh.vertices[tri[1]],
                   &c = mesh.vertices[tri[2]];
     const Vector3& n = mesh.normals[t];
     const double side = n.dot(x - a);
-    if (side > reach || side < -depth) continue;  // beyond the margin, or behind the surface
+    if (side > reach || side < -depth) return;  // beyond the margin, or behind the surface
     int feature = 0;
     const Vector3 p = detail::closestOnTriangle(x, a, b, c, feature);
     const Vector3 d = x - p;
     const double distance = d.norm();
-    if ((feature == 0 ? side : distance) - radius >= margin) continue;  // a point's side is signed
+    if ((feature == 0 ? side : distance) - radius >= margin) return;  // a point's side is signed
     Vector3 normal = n;
     double gap = side - radius;
     int id = t;
     if (feature != 0) {
-      if (side < 0.0) continue;  // behind this triangle, off its face: another one holds it
+      if (side < 0.0) return;  // behind this triangle, off its face: another one holds it
       // an edge or vertex counts once, where every triangle holding it finds it closest
       if (feature <= 3) {
         const int k = feature - 1;
         const int other = mesh.across[t][k];
         if (other >= 0) {
-          if (other < t) continue;  // the lower triangle emits it
+          if (other < t) return;  // the lower triangle emits it
           const int v0 = tri[k], v1 = tri[(k + 1) % 3];
           const int f = detail::closestFeature(mesh, other, x);
           const auto& o = mesh.triangles[other];
@@ -117,7 +118,7 @@ void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center
           for (int m = 0; m < 3; ++m)
             same = same || (f == 1 + m && ((o[m] == v0 && o[(m + 1) % 3] == v1) ||
                                            (o[m] == v1 && o[(m + 1) % 3] == v0)));
-          if (!same) continue;
+          if (!same) return;
         }
         id = triangles + 3 * t + k;
       } else {
@@ -129,7 +130,7 @@ void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center
           const int f = detail::closestFeature(mesh, u, x);
           closest = f >= 4 && mesh.triangles[u][f - 4] == v;
         }
-        if (!lowest || !closest) continue;
+        if (!lowest || !closest) return;
         id = 4 * triangles + v;
       }
       if (distance > 1e-12 * std::max(radius, depth)) {
@@ -149,7 +150,7 @@ void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center
     } else {
       emit(contact);
     }
-  }
+  });
   for (int i = 0; i < behind_count; ++i) {
     bool shallower_exit = false;
     for (int j = 0; j < behind_count && !shallower_exit; ++j)

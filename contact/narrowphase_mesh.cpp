@@ -70,12 +70,24 @@ struct MeshContacts {
   }
   bool near(const Vector3& x) const { return (x - center).norm() <= reach; }
 
-  // Each convex edge once (from its lower triangle) near the shape: f(t, k, a, e, normal
+  // Each convex vertex near the shape once (from the first triangle around it): f(v).
+  template <class F>
+  void forEachConvexVertex(F&& f) const {
+    const Vector3 box = Vector3::Constant(reach);
+    mesh.forEachTriangleIn(center - box, center + box, [&](int t) {
+      for (int v : mesh.triangles[t])
+        if (mesh.around[mesh.around_start[v]] == t && mesh.vertex_convex[v] &&
+            near(mesh.vertices[v]))
+          f(v);
+    });
+  }
+
+  // Each convex edge near the shape once (from its lower triangle): f(t, k, a, e, normal
   // orientation m, the inward directions of its one or two triangles).
   template <class F>
   void forEachConvexEdge(F&& f) const {
-    const int triangles = static_cast<int>(mesh.triangles.size());
-    for (int t = 0; t < triangles; ++t)
+    const Vector3 box = Vector3::Constant(reach);
+    mesh.forEachTriangleIn(center - box, center + box, [&](int t) {
       for (int k = 0; k < 3; ++k) {
         const int other = mesh.across[t][k];
         if (mesh.edge_kind[t][k] <= 0 || (other >= 0 && other < t)) continue;
@@ -92,6 +104,7 @@ struct MeshContacts {
         }
         f(t, k, a, e, m, w_t, w_o);
       }
+    });
   }
 
   // The normal of a mesh edge (a, a + e) against a shape's edge (p, p + d), oriented out of
@@ -140,8 +153,7 @@ void meshBox(const Pose& mesh_pose, const TriangleMesh& mesh, const Pose& box_po
   // inside the box (out through its nearest face)
   const int base_vertices = 8 * ids;
   const int vertices = static_cast<int>(mesh.vertices.size());
-  for (int v = 0; v < vertices; ++v) {
-    if (!mesh.vertex_convex[v] || !contacts.near(mesh.vertices[v])) continue;
+  contacts.forEachConvexVertex([&](int v) {
     const Vector3 x = box.rotation.transpose() * (mesh.vertices[v] - box.translation);
     const Vector3 excess = x.cwiseAbs() - half_extents;
     int face = 0, outside = 0;
@@ -150,12 +162,12 @@ void meshBox(const Pose& mesh_pose, const TriangleMesh& mesh, const Pose& box_po
         ++outside;
         face = i;
       }
-    if (outside > 1) continue;  // nearest an edge or corner of the box: the other kinds
+    if (outside > 1) return;  // nearest an edge or corner of the box: the other kinds
     if (outside == 0) excess.maxCoeff(&face);
     const Vector3 to_box = -(x[face] < 0.0 ? -1.0 : 1.0) * box.rotation.col(face);
-    if (!inVertexCone(mesh, v, to_box)) continue;
+    if (!inVertexCone(mesh, v, to_box)) return;
     contacts.emit(mesh.vertices[v], to_box, excess[face], base_vertices + v);
-  }
+  });
 
   // the mesh's convex edges against the box's twelve edges: along axis i, at the signs
   // (+/-) of the other two
@@ -202,18 +214,17 @@ void meshCapsule(const Pose& mesh_pose, const TriangleMesh& mesh, const Vector3&
   // the mesh's convex vertices against the side, between the ends
   const int base_vertices = 2 * ids;
   const int vertices = static_cast<int>(mesh.vertices.size());
-  for (int v = 0; v < vertices; ++v) {
+  contacts.forEachConvexVertex([&](int v) {
     const Vector3& x = mesh.vertices[v];
-    if (!mesh.vertex_convex[v] || !contacts.near(x)) continue;
     const double s = (x - p).dot(d) / d.squaredNorm();
-    if (!(s > 0.0 && s < 1.0)) continue;  // an end's: the balls take it
+    if (!(s > 0.0 && s < 1.0)) return;  // an end's: the balls take it
     const Vector3 offset = p + s * d - x;
     const double distance = offset.norm();
-    if (!(distance > 1e-12 * radius)) continue;
+    if (!(distance > 1e-12 * radius)) return;
     const Vector3 normal = offset / distance;
-    if (!inVertexCone(mesh, v, normal)) continue;
+    if (!inVertexCone(mesh, v, normal)) return;
     contacts.emit(x, normal, distance - radius, base_vertices + v);
-  }
+  });
 
   // the mesh's convex edges against the axis
   const int base_edges = base_vertices + vertices;

@@ -131,6 +131,64 @@ void buildMeshTopology(TriangleMesh& mesh) {
       }
   mesh.vertex_convex.assign(n, 0);
   for (int v = 0; v < n; ++v) mesh.vertex_convex[v] = lowest[v] >= 0 && highest[v] > 0;
+  buildTriangleTree(mesh);
+}
+
+void buildTriangleTree(TriangleMesh& mesh) {
+  const int n = static_cast<int>(mesh.vertices.size());
+  mesh.tree.clear();
+  mesh.tree_triangles.clear();
+  std::vector<Vector3> centre;
+  for (int t = 0; t < static_cast<int>(mesh.triangles.size()); ++t) {
+    const auto& tri = mesh.triangles[t];
+    if (tri[0] < 0 || tri[0] >= n || tri[1] < 0 || tri[1] >= n || tri[2] < 0 || tri[2] >= n)
+      continue;  // validateShape names it
+    mesh.tree_triangles.push_back(t);
+    centre.push_back((mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]) / 3);
+  }
+  if (mesh.tree_triangles.empty()) return;
+  std::vector<Vector3> triangle_centre(mesh.triangles.size(), Vector3::Zero());
+  for (std::size_t k = 0; k < centre.size(); ++k)
+    triangle_centre[mesh.tree_triangles[k]] = centre[k];
+  constexpr int kLeaf = 4;
+  // top down: a node's triangles split at the median of their centres along its longest side;
+  // the tree's depth stays within forEachTriangleIn's stack (2 log2(triangles / kLeaf))
+  mesh.tree.push_back({});
+  mesh.tree[0].end = static_cast<int>(mesh.tree_triangles.size());
+  for (std::size_t k = 0; k < mesh.tree.size(); ++k) {
+    const int begin = mesh.tree[k].begin, end = mesh.tree[k].end;
+    Vector3 lower = Vector3::Constant(std::numeric_limits<double>::infinity()), upper = -lower;
+    Vector3 centre_lower = lower, centre_upper = upper;
+    for (int i = begin; i < end; ++i) {
+      const int t = mesh.tree_triangles[i];
+      for (int v : mesh.triangles[t]) {
+        lower = lower.cwiseMin(mesh.vertices[v]);
+        upper = upper.cwiseMax(mesh.vertices[v]);
+      }
+      centre_lower = centre_lower.cwiseMin(triangle_centre[t]);
+      centre_upper = centre_upper.cwiseMax(triangle_centre[t]);
+    }
+    mesh.tree[k].lower = lower;
+    mesh.tree[k].upper = upper;
+    if (end - begin <= kLeaf) continue;
+    int axis = 0;
+    (centre_upper - centre_lower).maxCoeff(&axis);
+    const int middle = begin + (end - begin) / 2;
+    std::nth_element(mesh.tree_triangles.begin() + begin, mesh.tree_triangles.begin() + middle,
+                     mesh.tree_triangles.begin() + end, [&](int a, int b) {
+                       const double ca = triangle_centre[a][axis], cb = triangle_centre[b][axis];
+                       return ca < cb || (ca == cb && a < b);
+                     });
+    const int child = static_cast<int>(mesh.tree.size());
+    mesh.tree[k].first_child = child;
+    TriangleMesh::TreeNode left, right;
+    left.begin = begin;
+    left.end = middle;
+    right.begin = middle;
+    right.end = end;
+    mesh.tree.push_back(left);
+    mesh.tree.push_back(right);
+  }
 }
 
 Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {

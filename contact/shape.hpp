@@ -45,10 +45,41 @@ struct TriangleMesh {
   // around it, and at least one convex one). Closed forms against boxes and capsules use them.
   std::vector<std::array<signed char, 3>> edge_kind;
   std::vector<char> vertex_convex;
+  // A tree of boxes over the triangles: node 0 the root, each node two children or a leaf's
+  // range of tree_triangles. The closed forms visit only the triangles near a shape.
+  struct TreeNode {
+    Vector3 lower = Vector3::Zero(), upper = Vector3::Zero();
+    int first_child = -1;  // the other is first_child + 1; -1: a leaf
+    int begin = 0, end = 0;
+  };
+  std::vector<TreeNode> tree;
+  std::vector<int> tree_triangles;
+
+  // f(t) for every triangle whose box meets [lower, upper] (mesh frame), each once.
+  template <class F>
+  void forEachTriangleIn(const Vector3& lower, const Vector3& upper, F&& f) const {
+    if (tree.empty()) return;
+    int stack[128];  // a median split's depth is about log2(triangles)
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const TreeNode& node = tree[stack[--top]];
+      if ((node.lower.array() > upper.array()).any() || (node.upper.array() < lower.array()).any())
+        continue;
+      if (node.first_child < 0) {
+        for (int k = node.begin; k < node.end; ++k) f(tree_triangles[k]);
+      } else if (top + 2 <= 128) {
+        stack[top++] = node.first_child + 1;
+        stack[top++] = node.first_child;
+      }
+    }
+  }
 };
 
-// Fills normals, across and around (a non-manifold edge keeps its first neighbour).
+// Fills normals, across and around (a non-manifold edge keeps its first neighbour), the edge
+// and vertex kinds, and the tree (buildTriangleTree).
 void buildMeshTopology(TriangleMesh& mesh);
+void buildTriangleTree(TriangleMesh& mesh);
 
 struct Shape {
   ShapeType type = ShapeType::Sphere;

@@ -2,6 +2,10 @@
 #include "contact/narrowphase_analytic.hpp"
 #include "contact/narrowphase_mesh.hpp"
 
+#include <random>
+
+#include "contact/mesh_io.hpp"
+
 #include <fcl/fcl.h>
 #include <gtest/gtest.h>
 
@@ -335,6 +339,53 @@ TEST(MeshBall, APointInsideASolidLeavesThroughItsNearestFace) {
   ASSERT_EQ(c.size(), 1u);
   EXPECT_NEAR(c[0].gap, -0.01, 1e-15);
   EXPECT_EQ(c[0].normal, Vector3::UnitZ());
+}
+
+// The tree of boxes over a mesh's triangles gives the closed forms the contacts a visit of every
+// triangle gives: the bowl (240 triangles) against random balls, boxes and capsules near it,
+// compared with the same mesh whose tree is one leaf holding all.
+TEST(MeshTree, ClosedFormsSeeEveryTriangleTheyNeed) {
+  const auto bowl =
+      Shape::triangleMesh(loadTriangleMesh(std::string(SWEEP_TEST_DATA) + "/meshes/bowl.stl")).mesh;
+  ASSERT_GT(bowl->tree.size(), 1u);
+  auto flat = std::make_shared<TriangleMesh>(*bowl);
+  flat->tree.assign(1, {});
+  flat->tree[0].lower = Vector3::Constant(-1e300);
+  flat->tree[0].upper = Vector3::Constant(1e300);
+  flat->tree[0].end = static_cast<int>(flat->triangles.size());
+  flat->tree_triangles.resize(flat->triangles.size());
+  for (std::size_t t = 0; t < flat->triangles.size(); ++t) flat->tree_triangles[t] = int(t);
+  auto key = [](const std::vector<ContactPoint>& points) {
+    std::vector<std::pair<int, double>> k;
+    for (const ContactPoint& p : points) k.emplace_back(p.feature, p.gap);
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int contacts = 0;
+  for (int draw = 0; draw < 400; ++draw) {
+    Pose pose;
+    pose.rotation =
+        Eigen::Quaterniond(u(rng), u(rng), u(rng), u(rng)).normalized().toRotationMatrix();
+    // near the surface: a point of the sphere of radius 0.25 about (0, 0, 0.25), low in it
+    const Vector3 direction = Vector3(u(rng), u(rng), -1.5 + 0.5 * u(rng)).normalized();
+    pose.translation = Vector3(0, 0, 0.25) + (0.22 + 0.03 * u(rng)) * direction;
+    const Vector3 half(0.02 + 0.01 * u(rng), 0.03, 0.015);
+    std::vector<ContactPoint> tree_out, flat_out;
+    meshBox(Pose::identity(), *bowl, pose, half, 0.01, tree_out);
+    meshBox(Pose::identity(), *flat, pose, half, 0.01, flat_out);
+    const Vector3 end = pose.apply(Vector3(0, 0, 0.04));
+    meshCapsule(Pose::identity(), *bowl, pose.translation, end, 0.015, 0.01, tree_out);
+    meshCapsule(Pose::identity(), *flat, pose.translation, end, 0.015, 0.01, flat_out);
+    meshBall(Pose::identity(), *bowl, pose.translation, 0.03, 0.01,
+             [&](const ContactPoint& c) { tree_out.push_back(c); });
+    meshBall(Pose::identity(), *flat, pose.translation, 0.03, 0.01,
+             [&](const ContactPoint& c) { flat_out.push_back(c); });
+    ASSERT_EQ(key(tree_out), key(flat_out)) << "draw " << draw;
+    contacts += static_cast<int>(tree_out.size());
+  }
+  EXPECT_GT(contacts, 400);  // the draws touch the bowl
 }
 
 }  // namespace
