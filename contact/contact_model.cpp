@@ -96,6 +96,10 @@ int ContactModelBuilder::addGeometry(const std::string& name, BodyRef body, cons
   if (!placement.translation.allFinite() || !placement.rotation.allFinite())
     throw InputError("shape '" + name + "': placement is not finite");
   geometries_.push_back(Geometry{name, body, placement, shape, material});
+  Shape& added = geometries_.back().shape;
+  if (added.type == ShapeType::Box && !added.mesh && added.half_extents.allFinite() &&
+      (added.half_extents.array() > 0.0).all())
+    added.mesh = closedBoxMesh(added.half_extents);  // an invalid size: validateShape names it
   return static_cast<int>(geometries_.size()) - 1;
 }
 

@@ -72,14 +72,20 @@ ContactData& ContactData::operator=(ContactData&&) noexcept = default;
 namespace {
 
 // FCL 0.7 answers a sphere against a triangle mesh with a negative depth and witness points in
-// the shapes' own frames, and a box or capsule with one point per triangle; Sweep's closed
-// forms take these pairs on every path.
+// the shapes' own frames, a box or capsule with one point per triangle, and a box against a
+// box or capsule with gaps that let a capsule sink 8 mm into a box and POS throw a box off
+// another; Sweep's closed forms take these pairs on every path (a box as its surface mesh).
 bool meshClosedForm(const Shape& a, const Shape& b) {
   auto held = [](ShapeType t) {
     return t == ShapeType::Sphere || t == ShapeType::Box || t == ShapeType::Capsule;
   };
+  auto box_surface = [](const Shape& box, const Shape& other) {
+    return box.type == ShapeType::Box && box.mesh &&
+           (other.type == ShapeType::Box || other.type == ShapeType::Capsule);
+  };
   return (a.type == ShapeType::TriangleMesh && held(b.type)) ||
-         (b.type == ShapeType::TriangleMesh && held(a.type));
+         (b.type == ShapeType::TriangleMesh && held(a.type)) || box_surface(a, b) ||
+         box_surface(b, a);
 }
 
 // The closed forms take the pair in one order (container first, ball second); `flipped`
@@ -90,7 +96,8 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
   const bool flipped =
       isUnbounded(sb) ||
       (!isUnbounded(sa) && ((isBall(sa.type) && !isBall(sb.type)) ||
-                            (sb.type == ShapeType::TriangleMesh && sa.type != sb.type)));
+                            (sb.type == ShapeType::TriangleMesh && sa.type != sb.type) ||
+                            (sb.type == ShapeType::Box && sa.type == ShapeType::Capsule)));
   const Shape& s1 = flipped ? sb : sa;
   const Shape& s2 = flipped ? sa : sb;
   const Pose& p1 = flipped ? pb : pa;
@@ -110,7 +117,13 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
                                 p2.translation, s2.radius));
       break;
     case ShapeType::Box:
-      out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
+      if (isBall(s2.type))
+        out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
+      else if (s1.mesh && s2.type == ShapeType::Box)
+        meshBox(p1, *s1.mesh, p2, s2.half_extents, margin, out);
+      else if (s1.mesh && s2.type == ShapeType::Capsule)
+        meshCapsule(p1, *s1.mesh, p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
+                    p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
       break;
     case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see meshClosedForm
       if (s2.type == ShapeType::Sphere)

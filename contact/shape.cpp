@@ -143,6 +143,9 @@ void buildTriangleTree(TriangleMesh& mesh) {
     const auto& tri = mesh.triangles[t];
     if (tri[0] < 0 || tri[0] >= n || tri[1] < 0 || tri[1] >= n || tri[2] < 0 || tri[2] >= n)
       continue;  // validateShape names it
+    if (!mesh.vertices[tri[0]].allFinite() || !mesh.vertices[tri[1]].allFinite() ||
+        !mesh.vertices[tri[2]].allFinite())
+      continue;  // and this: a non-finite centre would break the median's order
     mesh.tree_triangles.push_back(t);
     centre.push_back((mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]) / 3);
   }
@@ -189,6 +192,18 @@ void buildTriangleTree(TriangleMesh& mesh) {
     mesh.tree.push_back(left);
     mesh.tree.push_back(right);
   }
+}
+
+std::shared_ptr<const TriangleMesh> closedBoxMesh(const Vector3& half_extents) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  for (int k = 0; k < 8; ++k)
+    mesh->vertices.emplace_back((k & 1) ? half_extents.x() : -half_extents.x(),
+                                (k & 2) ? half_extents.y() : -half_extents.y(),
+                                (k & 4) ? half_extents.z() : -half_extents.z());
+  mesh->triangles = {{4, 5, 7}, {4, 7, 6}, {0, 2, 3}, {0, 3, 1}, {0, 1, 5}, {0, 5, 4},
+                     {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  buildMeshTopology(*mesh);
+  return mesh;
 }
 
 Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {

@@ -81,6 +81,10 @@ struct TriangleMesh {
 void buildMeshTopology(TriangleMesh& mesh);
 void buildTriangleTree(TriangleMesh& mesh);
 
+// A box's surface as a closed triangle mesh with its topology (12 triangles, front outward):
+// the mesh closed forms then take box-box and box-capsule pairs (narrowphase_mesh.hpp).
+std::shared_ptr<const TriangleMesh> closedBoxMesh(const Vector3& half_extents);
+
 struct Shape {
   ShapeType type = ShapeType::Sphere;
   double radius = 0.0;
@@ -89,7 +93,7 @@ struct Shape {
   Vector3 segment_start = Vector3::Zero();
   Vector3 segment_end = Vector3::Zero();
   std::vector<Vector3> vertices;             // polygon (z = 0) and convex mesh
-  std::shared_ptr<const TriangleMesh> mesh;  // convex and triangle meshes
+  std::shared_ptr<const TriangleMesh> mesh;  // convex and triangle meshes; a box's surface
 
   static Shape sphere(double radius);
   static Shape box(const Vector3& size);  // full edge lengths

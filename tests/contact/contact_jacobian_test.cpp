@@ -166,8 +166,8 @@ TEST(ContactJacobian, PlanarBodies) {
 }
 
 TEST(ContactJacobian, FreeBodiesWithQuaternions) {
-  // a box and a sphere on free bodies, both spinning: sphere-box has a closed form, and a
-  // capsule against the box goes through FCL's GJK
+  // a box and a sphere on free bodies, both spinning: sphere-box has a closed form, and so
+  // has a capsule against the box (the box's surface mesh): both of its ends within the margin
   const std::vector<Shape> shapes = {Shape::box(Vector3(1.0, 0.8, 0.6)), Shape::sphere(0.3),
                                      Shape::capsule(0.2, 0.6)};
   const test::ShapeScene shape_scene = test::shapeScene(shapes);
@@ -179,7 +179,7 @@ TEST(ContactJacobian, FreeBodiesWithQuaternions) {
   test::placeBody(s.model, s.q, 0, Vector3::Zero(), test::randomOrientation(rng, false));
   test::placeBody(s.model, s.q, 1, Vector3(0.0, 0.0, 1.1), Quaternion::Identity());
   test::placeBody(s.model, s.q, 2, Vector3(1.2, 0.0, 0.0), test::randomOrientation(rng, false));
-  expectRatesMatch(s, randomVelocity(s.model.nv, 2), 0.0, 0.8, 2);
+  expectRatesMatch(s, randomVelocity(s.model.nv, 2), 0.0, 0.8, 3);
 }
 
 TEST(ContactJacobian, UrdfArmTouchingABox) {
