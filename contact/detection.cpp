@@ -74,8 +74,10 @@ namespace {
 // FCL 0.7 answers a sphere against a triangle mesh with a negative depth and witness points in
 // the shapes' own frames, a box or capsule with one point per triangle, and a box against a
 // box or capsule with gaps that let a capsule sink 8 mm into a box and POS throw a box off
-// another; Sweep's closed forms take these pairs on every path (a box as its surface mesh).
-bool meshClosedForm(const Shape& a, const Shape& b) {
+// another, and capsule-capsule with normals off the axes' common normal (capsules sank into
+// each other); Sweep's closed forms take these pairs on every path (a box as its surface
+// mesh).
+bool ownClosedForm(const Shape& a, const Shape& b) {
   auto held = [](ShapeType t) {
     return t == ShapeType::Sphere || t == ShapeType::Box || t == ShapeType::Capsule;
   };
@@ -85,7 +87,7 @@ bool meshClosedForm(const Shape& a, const Shape& b) {
   };
   return (a.type == ShapeType::TriangleMesh && held(b.type)) ||
          (b.type == ShapeType::TriangleMesh && held(a.type)) || box_surface(a, b) ||
-         box_surface(b, a);
+         box_surface(b, a) || (a.type == ShapeType::Capsule && b.type == ShapeType::Capsule);
 }
 
 // The closed forms take the pair in one order (container first, ball second); `flipped`
@@ -125,7 +127,7 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
         meshCapsule(p1, *s1.mesh, p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
                     p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
       break;
-    case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see meshClosedForm
+    case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see ownClosedForm
       if (s2.type == ShapeType::Sphere)
         meshBall(p1, *s1.mesh, p2.translation, s2.radius, margin,
                  [&](const ContactPoint& c) { out.push_back(c); });
@@ -136,6 +138,14 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
                     p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
       break;
     case ShapeType::Capsule:  // a segment along the local z axis, rounded by the radius
+      if (s2.type == ShapeType::Capsule) {
+        segmentSegment(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
+                       p1.apply(Vector3(0.0, 0.0, 0.5 * s1.length)), s1.radius,
+                       p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
+                       p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin,
+                       [&](const ContactPoint& c) { out.push_back(c); });
+        break;
+      }
       out.push_back(segmentBall(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
                                 p1.apply(Vector3(0.0, 0.0, 0.5 * s1.length)), s1.radius,
                                 p2.translation, s2.radius));
@@ -248,7 +258,7 @@ void narrowphasePair(const Model& model, const ContactModel& cmodel, const Conta
   } else {
     points.clear();
     if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded ||
-        meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
+        ownClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape))
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], margin, points);
     else
@@ -442,7 +452,8 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     }
     cdata.points.clear();
     // a mesh pair within an unbounded margin is every triangle's feature: its overlaps only
-    const bool mesh = meshClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape);
+    // (and for the other closed forms of ownClosedForm)
+    const bool mesh = ownClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape);
     if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded || mesh)
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
                    cdata.geometry_pose[b], mesh ? 0.0 : far, cdata.points);

@@ -10,9 +10,10 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
   switch (b) {
     case T::Sphere:
       return a == T::Sphere;
-    case T::Box:
-    case T::Capsule:
-      return a == T::Sphere;
+    case T::Box:  // box-box: its surface mesh (narrowphase_mesh.hpp)
+      return a == T::Sphere || a == T::Box;
+    case T::Capsule:  // box-capsule: the box's surface mesh
+      return a == T::Sphere || a == T::Box || a == T::Capsule;
     case T::TriangleMesh:
       return a == T::Sphere || a == T::Box || a == T::Capsule;  // narrowphase_mesh.hpp
     case T::HalfSpace:

@@ -34,6 +34,17 @@ inline ContactPoint ballBall(const Vector3& center_a, double radius_a, const Vec
 ContactPoint segmentBall(const Vector3& start, const Vector3& end, double rounding,
                          const Vector3& center, double radius);
 
+// Rounded segment against rounded segment (capsule against capsule): each end against the
+// other segment where its closest point there is inside it (an end against an end once, from
+// the first), and the two segments' closest points where they lie inside both. Capsules side
+// by side get a point at each end of their overlap, crossing ones their closest points.
+// Features: 0, 1 the first's ends, 2, 3 the second's, 4 the inner points. Points with a gap
+// below `margin`; calls emit(ContactPoint).
+template <class Emit>
+void segmentSegment(const Vector3& start_a, const Vector3& end_a, double rounding_a,
+                    const Vector3& start_b, const Vector3& end_b, double rounding_b, double margin,
+                    Emit&& emit);
+
 // Half-space {x : (x - origin) . outward <= 0} against ball.
 ContactPoint halfSpaceBall(const Vector3& origin, const Vector3& outward, const Vector3& center,
                            double radius);

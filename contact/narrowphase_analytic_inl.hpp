@@ -161,6 +161,61 @@ void meshPoint(const Pose& pose, const TriangleMesh& mesh, const Vector3& center
 }
 
 template <class Emit>
+void segmentSegment(const Vector3& start_a, const Vector3& end_a, double rounding_a,
+                    const Vector3& start_b, const Vector3& end_b, double rounding_b, double margin,
+                    Emit&& emit) {
+  const Vector3 da = end_a - start_a, db = end_b - start_b;
+  const Vector3 centre_a = start_a + 0.5 * da, centre_b = start_b + 0.5 * db;
+  const double rounding = rounding_a + rounding_b;
+  // the contact from x on a to y on b; coincident points take the axes' common normal
+  auto add = [&](const Vector3& x, const Vector3& y, int feature) {
+    Vector3 d = y - x;
+    double distance = d.norm();
+    if (!(distance > 1e-12 * std::max(rounding, 1e-300))) {
+      d = da.cross(db);
+      if (!(d.norm() > 0.0))
+        d = da.cross(Vector3::UnitX()).norm() > 0.0 ? da.cross(Vector3::UnitX())
+                                                    : da.cross(Vector3::UnitY());
+      if (d.dot(centre_b - centre_a) < 0.0) d = -d;
+      distance = 0.0;
+    }
+    ContactPoint c;
+    c.normal = d.normalized();
+    c.gap = distance - rounding;
+    if (!(c.gap < margin)) return;
+    c.point_a = x + rounding_a * c.normal;
+    c.point_b = y - rounding_b * c.normal;
+    c.feature = feature;
+    emit(c);
+  };
+  // parameter on [start, start + d] of the point closest to x, and whether it is inside
+  auto onto = [](const Vector3& start, const Vector3& d, const Vector3& x, bool& inside) {
+    const double length2 = d.squaredNorm();
+    const double s = length2 > 0.0 ? (x - start).dot(d) / length2 : 0.0;
+    inside = s > 0.0 && s < 1.0;
+    return std::clamp(s, 0.0, 1.0);
+  };
+  const Vector3 ends_a[2] = {start_a, end_a}, ends_b[2] = {start_b, end_b};
+  for (int k = 0; k < 2; ++k) {  // a's ends against b: every end against an end, once
+    bool inside = false;
+    const double s = onto(start_b, db, ends_a[k], inside);
+    add(ends_a[k], start_b + s * db, k);
+  }
+  for (int k = 0; k < 2; ++k) {  // b's ends against a's inside
+    bool inside = false;
+    const double s = onto(start_a, da, ends_b[k], inside);
+    if (inside) add(start_a + s * da, ends_b[k], 2 + k);
+  }
+  // the closest points of the two lines, inside both segments (crossing axes)
+  const Vector3 r = start_a - start_b;
+  const double a = da.dot(da), e = db.dot(db), b = da.dot(db), c = da.dot(r), f = db.dot(r);
+  const double denominator = a * e - b * b;
+  if (!(denominator > 1e-12 * a * e)) return;  // parallel: the ends hold them
+  const double s = (b * f - c * e) / denominator, t = (a * f - b * c) / denominator;
+  if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) add(start_a + s * da, start_b + t * db, 4);
+}
+
+template <class Emit>
 void halfSpaceShape(const Vector3& origin, const Vector3& outward, const Shape& shape,
                     const Pose& pose, double margin, Emit&& emit) {
   switch (shape.type) {

@@ -388,5 +388,41 @@ TEST(MeshTree, ClosedFormsSeeEveryTriangleTheyNeed) {
   EXPECT_GT(contacts, 400);  // the draws touch the bowl
 }
 
+// Capsule against capsule: crossing axes meet at their common normal, parallel ones at both
+// ends of their overlap, axes end to end at their ends, each once.
+TEST(SegmentSegment, CrossingParallelAndEndToEnd) {
+  auto contacts = [](const Vector3& a0, const Vector3& a1, const Vector3& b0, const Vector3& b1) {
+    std::vector<ContactPoint> out;
+    segmentSegment(a0, a1, 0.02, b0, b1, 0.03, 0.01,
+                   [&](const ContactPoint& c) { out.push_back(c); });
+    return out;
+  };
+  // crossing: a along x at z = 0, b along y at z = 0.045 (overlap 0.005)
+  const auto crossing =
+      contacts({-0.1, 0, 0}, {0.1, 0, 0}, {0.02, -0.1, 0.045}, {0.02, 0.1, 0.045});
+  ASSERT_EQ(crossing.size(), 1u);
+  EXPECT_EQ(crossing[0].feature, 4);
+  EXPECT_NEAR(crossing[0].gap, -0.005, 1e-15);
+  EXPECT_NEAR((crossing[0].normal - Vector3::UnitZ()).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((crossing[0].point_a - Vector3(0.02, 0, 0.02)).norm(), 0.0, 1e-15);
+  // side by side, b shifted along x: a point at each end of the overlap [0, 0.1]
+  const auto parallel = contacts({-0.1, 0, 0}, {0.1, 0, 0}, {0.0, 0, 0.045}, {0.2, 0, 0.045});
+  ASSERT_EQ(parallel.size(), 2u);
+  for (const ContactPoint& c : parallel) {
+    EXPECT_NEAR(c.gap, -0.005, 1e-15);
+    EXPECT_NEAR((c.normal - Vector3::UnitZ()).norm(), 0.0, 1e-15);
+  }
+  EXPECT_EQ(parallel[0].feature, 1);  // a's end at x = 0.1
+  EXPECT_EQ(parallel[1].feature, 2);  // b's start at x = 0
+  // end to end along x, 0.04 apart (gap -0.01): one contact, from a's end
+  const auto ends = contacts({-0.1, 0, 0}, {0.1, 0, 0}, {0.14, 0, 0}, {0.3, 0, 0});
+  ASSERT_EQ(ends.size(), 1u);
+  EXPECT_EQ(ends[0].feature, 1);
+  EXPECT_NEAR(ends[0].gap, -0.01, 1e-15);
+  EXPECT_NEAR((ends[0].normal - Vector3::UnitX()).norm(), 0.0, 1e-15);
+  // apart by more than the margin: nothing
+  EXPECT_TRUE(contacts({-0.1, 0, 0}, {0.1, 0, 0}, {0, -0.1, 0.07}, {0, 0.1, 0.07}).empty());
+}
+
 }  // namespace
 }  // namespace sweep
