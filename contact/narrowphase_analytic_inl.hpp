@@ -53,6 +53,18 @@ inline int closestFeature(const TriangleMesh& mesh, int t, const Vector3& x) {
   return feature;
 }
 
+// Parameters of the closest points of the lines p1 + s d1 and p2 + t d2; false when parallel.
+inline bool closestOnLines(const Vector3& p1, const Vector3& d1, const Vector3& p2,
+                           const Vector3& d2, double& s, double& t) {
+  const Vector3 r = p1 - p2;
+  const double a = d1.dot(d1), e = d2.dot(d2), b = d1.dot(d2), c = d1.dot(r), f = d2.dot(r);
+  const double denominator = a * e - b * b;
+  if (!(denominator > 1e-12 * a * e)) return false;
+  s = (b * f - c * e) / denominator;
+  t = (a * f - b * c) / denominator;
+  return true;
+}
+
 // Whether the solid behind triangles t and u is their half-spaces' intersection near both (a
 // ridge, a rim, a slab's two sides; coplanar counts): each lies behind or on the other's plane.
 inline bool mutuallyConvex(const TriangleMesh& mesh, int t, int u) {
@@ -206,13 +218,12 @@ void segmentSegment(const Vector3& start_a, const Vector3& end_a, double roundin
     const double s = onto(start_a, da, ends_b[k], inside);
     if (inside) add(start_a + s * da, ends_b[k], 2 + k);
   }
-  // the closest points of the two lines, inside both segments (crossing axes)
-  const Vector3 r = start_a - start_b;
-  const double a = da.dot(da), e = db.dot(db), b = da.dot(db), c = da.dot(r), f = db.dot(r);
-  const double denominator = a * e - b * b;
-  if (!(denominator > 1e-12 * a * e)) return;  // parallel: the ends hold them
-  const double s = (b * f - c * e) / denominator, t = (a * f - b * c) / denominator;
-  if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) add(start_a + s * da, start_b + t * db, 4);
+  // the closest points of the two lines, inside both segments (crossing axes; parallel ones:
+  // the ends hold them)
+  double s = 0.0, t = 0.0;
+  if (detail::closestOnLines(start_a, da, start_b, db, s, t) && s > 0.0 && s < 1.0 && t > 0.0 &&
+      t < 1.0)
+    add(start_a + s * da, start_b + t * db, 4);
 }
 
 template <class Emit>

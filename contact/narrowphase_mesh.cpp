@@ -32,18 +32,6 @@ Vector3 inward(const TriangleMesh& mesh, int t, const Vector3& a, const Vector3&
   return w;
 }
 
-// Parameters of the closest points of the lines p1 + s d1 and p2 + t d2; false when parallel.
-bool closestOnLines(const Vector3& p1, const Vector3& d1, const Vector3& p2, const Vector3& d2,
-                    double& s, double& t) {
-  const Vector3 r = p1 - p2;
-  const double a = d1.dot(d1), e = d2.dot(d2), b = d1.dot(d2), c = d1.dot(r), f = d2.dot(r);
-  const double denominator = a * e - b * b;
-  if (!(denominator > 1e-12 * a * e)) return false;
-  s = (b * f - c * e) / denominator;
-  t = (a * f - b * c) / denominator;
-  return true;
-}
-
 // What the three kinds of points share, in the mesh's frame.
 struct MeshContacts {
   const Pose& pose;
@@ -114,7 +102,7 @@ struct MeshContacts {
                 const Vector3& w_o, const Vector3& p, const Vector3& d, Vector3& on_mesh,
                 Vector3& on_shape, Vector3& normal) const {
     double s = 0.0, t = 0.0;
-    if (!closestOnLines(a, e, p, d, s, t) || !(s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0))
+    if (!detail::closestOnLines(a, e, p, d, s, t) || !(s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0))
       return false;
     normal = e.cross(d).normalized();
     if (normal.dot(m) < 0.0) normal = -normal;
