@@ -98,8 +98,12 @@ int ContactModelBuilder::addGeometry(const std::string& name, BodyRef body, cons
   geometries_.push_back(Geometry{name, body, placement, shape, material});
   Shape& added = geometries_.back().shape;
   if (added.type == ShapeType::Box && !added.mesh && added.half_extents.allFinite() &&
-      (added.half_extents.array() > 0.0).all())
-    added.mesh = closedBoxMesh(added.half_extents);  // an invalid size: validateShape names it
+      (added.half_extents.array() > 0.0).all()) {  // an invalid size: validateShape names it
+    const Vector3& h = added.half_extents;
+    std::shared_ptr<const TriangleMesh>& surface = box_surfaces_[{h.x(), h.y(), h.z()}];
+    if (!surface) surface = closedBoxMesh(h);
+    added.mesh = surface;
+  }
   return static_cast<int>(geometries_.size()) - 1;
 }
 

@@ -1,6 +1,9 @@
 #pragma once
 // What never changes during a run on the contact side: the shapes attached to bodies, the
 // materials and their contact laws, and the detection path chosen for the scene.
+#include <array>
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -176,6 +179,8 @@ class ContactModelBuilder {
   MaterialTable materials_;
   DetectionSettings settings_;
   std::vector<Geometry> geometries_;
+  // boxes of one size share their surface mesh (a granular scene of boxes has few sizes)
+  std::map<std::array<double, 3>, std::shared_ptr<const TriangleMesh>> box_surfaces_;
 };
 
 }  // namespace sweep

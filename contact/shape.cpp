@@ -209,7 +209,11 @@ std::shared_ptr<const TriangleMesh> closedBoxMesh(const Vector3& half_extents) {
 Shape Shape::triangleMesh(std::shared_ptr<const TriangleMesh> mesh) {
   Shape s;
   s.type = ShapeType::TriangleMesh;
-  if (mesh && mesh->normals.size() != mesh->triangles.size()) {
+  // the closed forms read the topology and the tree: a mesh without them gets them here
+  if (mesh && (mesh->normals.size() != mesh->triangles.size() ||
+               mesh->edge_kind.size() != mesh->triangles.size() ||
+               mesh->vertex_convex.size() != mesh->vertices.size() ||
+               (mesh->tree.empty() && !mesh->triangles.empty()))) {
     auto with_topology = std::make_shared<TriangleMesh>(*mesh);
     buildMeshTopology(*with_topology);
     mesh = std::move(with_topology);
