@@ -74,6 +74,11 @@ std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Ve
   std::vector<Vector3> vertices;
   for (std::size_t i = 0; i < mesh->vertices.size(); ++i) {
     const Vector3& p = mesh->vertices[i];
+    if (!p.allFinite()) {  // no order holds a NaN: kept apart, for validateShape to name
+      merged[i] = static_cast<int>(vertices.size());
+      vertices.push_back(p);
+      continue;
+    }
     const auto [it, fresh] = index.emplace(std::array<double, 3>{p.x(), p.y(), p.z()},
                                            static_cast<int>(vertices.size()));
     if (fresh) vertices.push_back(p);
