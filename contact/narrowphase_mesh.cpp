@@ -222,6 +222,47 @@ void meshCapsule(const Pose& mesh_pose, const TriangleMesh& mesh, const Vector3&
     if (!contacts.edgeEdge(a, e, m, w_t, w_o, p, d, on_mesh, on_axis, normal)) return;
     contacts.emit(on_mesh, normal, normal.dot(on_axis - on_mesh) - radius, base_edges + 3 * t + k);
   });
+
+  // the axis clipped to each face's region: where it crosses a convex edge rising toward it
+  // (it tilts down toward the face), the crossing against the face; the edge-axis point
+  // takes the crossings where the axis falls away beyond the edge
+  const int triangles = static_cast<int>(mesh.triangles.size());
+  const int base_clips = base_edges + 3 * triangles;
+  const Vector3 box = Vector3::Constant(contacts.reach);
+  mesh.forEachTriangleIn(contacts.center - box, contacts.center + box, [&](int t) {
+    const auto& tri = mesh.triangles[t];
+    const Vector3& n = mesh.normals[t];
+    double s_in = 0.0, s_out = 1.0;  // the axis's part over the face
+    int edge_in = -1, edge_out = -1;
+    for (int k = 0; k < 3; ++k) {
+      const Vector3& v = mesh.vertices[tri[k]];
+      const Vector3 inside = n.cross(mesh.vertices[tri[(k + 1) % 3]] - v);  // into the face
+      const double at_start = inside.dot(p - v), rate = inside.dot(d);
+      if (rate == 0.0) {
+        if (at_start < 0.0) return;
+        continue;
+      }
+      const double s = -at_start / rate;
+      if (rate > 0.0 && s > s_in) {
+        s_in = s;
+        edge_in = k;
+      } else if (rate < 0.0 && s < s_out) {
+        s_out = s;
+        edge_out = k;
+      }
+    }
+    if (!(s_in < s_out)) return;
+    const Vector3& origin = mesh.vertices[tri[0]];
+    const double h_in = n.dot(p + s_in * d - origin), h_out = n.dot(p + s_out * d - origin);
+    const double level = 1e-9 * radius;  // a level axis: the edge-axis points hold it
+    auto crossing = [&](double s, int edge, double h, double other_h) {
+      if (edge < 0 || mesh.edge_kind[t][edge] <= 0 || !(h > other_h + level)) return;
+      const Vector3 x = p + s * d;
+      contacts.emit(x - h * n, n, h - radius, base_clips + 3 * t + edge);
+    };
+    crossing(s_in, edge_in, h_in, h_out);
+    crossing(s_out, edge_out, h_out, h_in);
+  });
 }
 
 }  // namespace sweep

@@ -13,14 +13,18 @@
 //   plane through the vertex);
 // - the mesh's convex edges (ridges, rims) against the box's edges or the capsule's axis, where
 //   the two lines' closest points lie inside both segments and the normal lies in both edges'
-//   cones.
-// On a flat or concave patch (a floor, a bowl) the corners alone hold the shape; the other two
-// kinds carry it across ridges and peaks. Every triangle and vertex is visited (no tree): cost
-// grows with the mesh's size.
+//   cones;
+// - for a capsule, where its axis crosses a convex edge of a face rising toward the edge (the
+//   axis tilts down toward the face, so the edge's cone refuses the edge-axis normal), that
+//   crossing against the face: a capsule across a rim narrower than itself, rocking.
+// On a flat or concave patch (a floor, a bowl) the corners alone hold the shape; the other
+// kinds carry it across ridges and peaks. The mesh's tree of boxes gives the triangles near
+// the shape.
 //
 // Feature ids, with F = 4 x triangles + vertices (meshBall's ids): corner c (a capsule's end)
 // against mesh feature f is c F + f; then one per mesh vertex; then one per pair of a mesh
-// edge (3 x triangle + edge) and a box edge (12 per mesh edge; 1 for the capsule's axis).
+// edge (3 x triangle + edge) and a box edge (12 per mesh edge; 1 for the capsule's axis); then,
+// for a capsule, one per face's edge crossed (3 x triangle + edge).
 #include <vector>
 
 #include "contact/narrowphase_analytic.hpp"

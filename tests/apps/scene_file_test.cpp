@@ -322,7 +322,7 @@ TEST_F(InScenesFolder, ShapesRestOnATriangleMeshOrABoxAsOnAPlane) {
 // 48 boxes, capsules and spheres dropped into a box-walled bin (tests/data/scenes/bin.yaml),
 // 0.5 s, both schemes under every normal law: the energy never rises above its start (POS ran
 // away on FCL's box gaps), and under POS the overlap at the end is below 1 % of the smallest
-// size (1 cm). VEL and IQS keep what the impacts left (1.4-1.9 mm, 0.5 mm: docs/schemes.md).
+// size (1 cm). VEL and IQS keep what the impacts left (1.4-1.6 mm, 0.5 mm: docs/schemes.md).
 TEST_F(InScenesFolder, ABinOfBoxesCapsulesAndSpheresUnderEveryNormalLaw) {
   for (const char* scheme : {"moreau-jean", "catching-up"})
     for (const char* law : {"vel", "iqs", "pos"}) {

@@ -424,5 +424,27 @@ TEST(SegmentSegment, CrossingParallelAndEndToEnd) {
   EXPECT_TRUE(contacts({-0.1, 0, 0}, {0.1, 0, 0}, {0, -0.1, 0.07}, {0, 0.1, 0.07}).empty());
 }
 
+// A capsule across a box narrower than itself, its axis tilting down from one rim to the other:
+// the lower rim holds it by the edge-axis point, the higher by its crossing against the top
+// face (without it the capsule rocked from one rim to the other, sinking at each change).
+TEST(MeshCapsule, AcrossANarrowRimBothRimsHoldIt) {
+  const auto box = closedBoxMesh(Vector3(0.1, 0.02, 0.01));  // top at z = 0.01, rims y = +-0.02
+  std::vector<ContactPoint> out;
+  meshCapsule(Pose::identity(), *box, Vector3(0, -0.1, 0.0305), Vector3(0, 0.1, 0.0295), 0.02, 0.01,
+              out);
+  ASSERT_EQ(out.size(), 2u);
+  const auto face = std::find_if(out.begin(), out.end(),
+                                 [](const ContactPoint& c) { return c.point_a.y() < 0.0; });
+  ASSERT_NE(face, out.end());
+  EXPECT_NEAR(face->gap, 0.0301 - 0.01 - 0.02, 1e-15);
+  EXPECT_NEAR((face->normal - Vector3::UnitZ()).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((face->point_a - Vector3(0, -0.02, 0.01)).norm(), 0.0, 1e-15);
+  const ContactPoint& rim = out[face == out.begin() ? 1 : 0];
+  EXPECT_NEAR(rim.point_a.y(), 0.02, 1e-15);
+  EXPECT_NEAR(rim.point_a.z(), 0.01, 1e-15);
+  EXPECT_GT(rim.normal.y(), 0.0);  // tilted out over the lower rim
+  EXPECT_LT(rim.gap, face->gap);
+}
+
 }  // namespace
 }  // namespace sweep
