@@ -426,7 +426,7 @@ TEST(SegmentSegment, CrossingParallelAndEndToEnd) {
 
 // A capsule across a box narrower than itself, its axis tilting down from one rim to the other:
 // the lower rim holds it by the edge-axis point, the higher by its crossing against the top
-// face (without it the capsule rocked from one rim to the other, sinking at each change).
+// face (held by one rim at a time, a capsule rocks from rim to rim and sinks at each change).
 TEST(MeshCapsule, AcrossANarrowRimBothRimsHoldIt) {
   const auto box = closedBoxMesh(Vector3(0.1, 0.02, 0.01));  // top at z = 0.01, rims y = +-0.02
   std::vector<ContactPoint> out;
