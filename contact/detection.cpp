@@ -104,6 +104,17 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
   const Shape& s2 = flipped ? sa : sb;
   const Pose& p1 = flipped ? pb : pa;
   const Pose& p2 = flipped ? pa : pb;
+  // a capsule's end (side -1 or +1) along its local z axis
+  auto end = [](const Shape& capsule, const Pose& pose, double side) {
+    return pose.apply(Vector3(0.0, 0.0, 0.5 * side * capsule.length));
+  };
+  // s2 (a box or capsule) against a triangle mesh at p1: a triangle mesh's or a box's surface
+  auto meshShape = [&](const TriangleMesh& mesh) {
+    if (s2.type == ShapeType::Box)
+      meshBox(p1, mesh, p2, s2.half_extents, margin, out);
+    else if (s2.type == ShapeType::Capsule)
+      meshCapsule(p1, mesh, end(s2, p2, -1.0), end(s2, p2, 1.0), s2.radius, margin, out);
+  };
   switch (s1.type) {
     case ShapeType::HalfSpace:
     case ShapeType::HalfPlane:
@@ -121,34 +132,24 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
     case ShapeType::Box:
       if (isBall(s2.type))
         out.push_back(boxBall(p1, s1.half_extents, p2.translation, s2.radius));
-      else if (s1.mesh && s2.type == ShapeType::Box)
-        meshBox(p1, *s1.mesh, p2, s2.half_extents, margin, out);
-      else if (s1.mesh && s2.type == ShapeType::Capsule)
-        meshCapsule(p1, *s1.mesh, p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
-                    p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
+      else if (s1.mesh)  // its surface, as a triangle mesh
+        meshShape(*s1.mesh);
       break;
     case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see ownClosedForm
       if (s2.type == ShapeType::Sphere)
         meshBall(p1, *s1.mesh, p2.translation, s2.radius, margin,
                  [&](const ContactPoint& c) { out.push_back(c); });
-      else if (s2.type == ShapeType::Box)
-        meshBox(p1, *s1.mesh, p2, s2.half_extents, margin, out);
-      else if (s2.type == ShapeType::Capsule)
-        meshCapsule(p1, *s1.mesh, p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
-                    p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin, out);
+      else
+        meshShape(*s1.mesh);
       break;
     case ShapeType::Capsule:  // a segment along the local z axis, rounded by the radius
-      if (s2.type == ShapeType::Capsule) {
-        segmentSegment(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
-                       p1.apply(Vector3(0.0, 0.0, 0.5 * s1.length)), s1.radius,
-                       p2.apply(Vector3(0.0, 0.0, -0.5 * s2.length)),
-                       p2.apply(Vector3(0.0, 0.0, 0.5 * s2.length)), s2.radius, margin,
+      if (s2.type == ShapeType::Capsule)
+        segmentSegment(end(s1, p1, -1.0), end(s1, p1, 1.0), s1.radius, end(s2, p2, -1.0),
+                       end(s2, p2, 1.0), s2.radius, margin,
                        [&](const ContactPoint& c) { out.push_back(c); });
-        break;
-      }
-      out.push_back(segmentBall(p1.apply(Vector3(0.0, 0.0, -0.5 * s1.length)),
-                                p1.apply(Vector3(0.0, 0.0, 0.5 * s1.length)), s1.radius,
-                                p2.translation, s2.radius));
+      else
+        out.push_back(
+            segmentBall(end(s1, p1, -1.0), end(s1, p1, 1.0), s1.radius, p2.translation, s2.radius));
       break;
     default:
       break;
@@ -453,10 +454,10 @@ void evaluateContactGaps(const Model& model, const Data& data, const ContactMode
     cdata.points.clear();
     // a mesh pair within an unbounded margin is every triangle's feature: its overlaps only
     // (and for the other closed forms of ownClosedForm)
-    const bool mesh = ownClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape);
-    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded || mesh)
+    const bool own = ownClosedForm(cmodel.geometries[a].shape, cmodel.geometries[b].shape);
+    if (cmodel.path == DetectionPath::Analytic || ta.unbounded || tb.unbounded || own)
       analyticPair(cmodel.geometries[a].shape, cdata.geometry_pose[a], cmodel.geometries[b].shape,
-                   cdata.geometry_pose[b], mesh ? 0.0 : far, cdata.points);
+                   cdata.geometry_pose[b], own ? 0.0 : far, cdata.points);
     else
       cdata.fcl->narrowphase(a, b, far, cdata.points);
     // every contact of this pair takes the gap of its feature
