@@ -39,6 +39,10 @@ void ProblemAssembly::run(const std::vector<char>* deferred, int threads) {
   appendJointLimits();
   appendConstraints();
   numberIslands();
+  if (position_level) {
+    std::fill(p.known.begin(), p.known.end(), Vector3::Zero());
+    std::fill(p.rolling_known.begin(), p.rolling_known.end(), Vector2::Zero());
+  }
   // packed rows have no bilateral case: such problems take the generic paths
   if (p.pack_rows && p.bilateral.empty()) {
     p.pack2d();
@@ -245,9 +249,13 @@ void ProblemAssembly::appendConstraints() {
         const double velocity = std::isnan(command->velocity) ? 0.0 : command->velocity;
         return command->position + velocity * (at - command->time);
       };
-      const double rate = (drive(t + tau) - drive(t - tau)) / (2.0 * tau);
-      known.x() = -(rate + (drive(t + tau) - gap - tau * rate) / (2.0 * tau));
-      gap = 0.0;
+      if (position_level) {
+        gap -= drive(t);
+      } else {
+        const double rate = (drive(t + tau) - drive(t - tau)) / (2.0 * tau);
+        known.x() = -(rate + (drive(t + tau) - gap - tau * rate) / (2.0 * tau));
+        gap = 0.0;
+      }
     }
     const auto direction = [&](const std::function<VectorX(const VectorX&)>& of, const char* what) {
       VectorX w = of ? of(q_m) : VectorX::Zero(model.nv);
@@ -328,6 +336,16 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
                             const std::vector<ActuatorCommand>* commands) {
   ProblemAssembly{model, data, cmodel, cdata, t, law, tau, q_m, v_start, p, ws, v_free, commands}
       .run(deferred, threads);
+}
+
+void assemblePositionProblem(const Model& model, const Data& data, const ContactModel& cmodel,
+                             const ContactData& cdata, double t, const VectorX& q,
+                             const VectorX& zero, ContactProblem& p, ContactProblemWorkspace& ws,
+                             int threads, const std::vector<ActuatorCommand>* commands) {
+  ProblemAssembly assembly{model, data, cmodel, cdata, t,       NormalLaw::Pos, 1.0,
+                           q,     zero, p,      ws,    nullptr, commands};
+  assembly.position_level = true;
+  assembly.run(nullptr, threads);
 }
 
 }  // namespace sweep

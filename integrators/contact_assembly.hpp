@@ -30,6 +30,9 @@ struct ProblemAssembly {
   // Python's commands by actuator (null: none): a prescribed joint's commanded motion replaces
   // its constraint's drive (integrators/actuation.hpp)
   const std::vector<ActuatorCommand>* commands = nullptr;
+  // rows of a position projection (integrators/position_projection.hpp): no known velocities
+  // (driven bodies hold still), and a driven constraint's row asks gap(q) = drive(t)
+  bool position_level = false;
   const ContactJacobian& J = cdata.jacobian;
   int rhs_columns = cdata.jacobian.rolling ? 5 : 3;
 

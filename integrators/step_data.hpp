@@ -6,6 +6,7 @@
 // (namespace stepping) are functions of (StepModel, StepData); TimeStepper::step calls them in
 // the order of the scheme's table (time_stepper.hpp).
 #include <functional>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -49,6 +50,14 @@ struct SchemeSettings {
   bool screening = false;
   int screening_rounds = 8;
   double screening_gap = -1.0;
+  // Position projection after each step (integrators/position_projection.hpp): up to
+  // max_rounds rounds while an overlap (or a violated joint limit) is deeper than tolerance
+  // times the smallest moving shape's size (ContactModel::smallest_size; without one, tolerance
+  // in metres). 0 rounds: off.
+  struct Projection {
+    int max_rounds = 0;
+    double tolerance = 1e-3;
+  } projection;
   // 3D: contacts of free spheres as compact rows (ContactProblem::PackedSphere3d), 320 bytes
   // against 704 for the body-form rows, equal to them up to round-off. Scheme A's sweeps read
   // them directly; scheme B's friction stage reads them through the generic path and has a
@@ -98,6 +107,18 @@ struct StagedImpulse {
   Vector2 tangent = Vector2::Zero();
 };
 
+// scheme.projection's contacts, problem and workspaces at q_{k+1}, apart from the step's own
+// (whose contacts are the next step's warm starts).
+struct ProjectionData {
+  ProjectionData(const Model& model, const ContactModel& cmodel);
+  ContactData contacts;
+  ContactProblem problem;
+  ContactProblemWorkspace problem_ws;
+  SolverWorkspace solver_ws;
+  VectorX zero, dq, q;
+  std::vector<double> lambda;
+};
+
 // Everything a step computes. Vectors "by contact" are aligned with
 // contact_data.contacts (their previous_* twins with contact_data.previous); "by row" with
 // problem's rows. Sized between steps: the solvers allocate nothing inside their iterations.
@@ -138,7 +159,8 @@ struct StepData {
   // FrictionStageOptions::threshold_updates: v after stage 5a, the rounds' threshold impulses
   VectorX v_stage1;
   std::vector<double> threshold_impulse;
-  std::vector<double> end_gap;  // gaps at q_{k+1}, by contact (diagnostics)
+  std::vector<double> end_gap;                 // gaps at q_{k+1}, by contact (diagnostics)
+  std::unique_ptr<ProjectionData> projection;  // scheme.projection on
 
   // actuators (Model::actuators, integrators/actuation.hpp), by actuator: Python's commands,
   // the explicit torque tau_e and the implicit damping c of the step, whether the step holds it

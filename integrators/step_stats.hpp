@@ -40,6 +40,8 @@ struct StepStats {
   double margin_balls = 0.0;  // the same for pairs of two balls (detection.margin_rule)
   // detection.verify_margin: detections after the first, each because the end velocities
   // outran the margin; and whether they still did after the last one allowed
+  int projection_rounds = 0;      // scheme.projection: rounds this step (0: none needed)
+  int projection_iterations = 0;  // their solver's iterations
   int redetections = 0;
   bool margin_outrun = false;
 };

@@ -17,6 +17,7 @@
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
 #include "framework/parallel.hpp"
+#include "integrators/position_projection.hpp"
 #include "integrators/rows.hpp"
 #include "integrators/screening.hpp"
 
@@ -60,6 +61,12 @@ void SchemeSettings::validate() const {
     throw InputError("scheme.threshold_updates must be in [0, 100], got " +
                      std::to_string(friction.threshold_updates));
   if (std::isnan(screening_gap)) throw InputError("scheme.screening_gap must be a number, got nan");
+  if (projection.max_rounds < 0 || projection.max_rounds > 100)
+    throw InputError("scheme.projection.max_rounds must be in [0, 100], got " +
+                     std::to_string(projection.max_rounds));
+  if (!(projection.tolerance > 0.0) || !std::isfinite(projection.tolerance))
+    throw InputError("scheme.projection.tolerance must be a positive number, got " +
+                     std::to_string(projection.tolerance));
   if (screening_rounds < 1)
     throw InputError("scheme.screening_rounds must be >= 1, got " +
                      std::to_string(screening_rounds));
@@ -172,6 +179,7 @@ const StepStats& TimeStepper::step() {
     }
   }
   update(m, d);  // 6
+  projectPositions(m, d);
   checkRunaway(m, d);
   diagnose(m, d);
   // periodic boundaries: bodies that left the cell re-enter at the other side; after the

@@ -64,6 +64,9 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
                                       s.friction_stage.acceleration == sweep::NlgsAcceleration::Nncg
                                 : s.coulomb.acceleration == sweep::NlgsAcceleration::Nncg;
   if (nncg) out << ", NNCG sweeps";
+  if (s.projection.max_rounds > 0)
+    out << ", position projection (up to " << s.projection.max_rounds << " rounds, tolerance "
+        << s.projection.tolerance << " of the smallest size)";
   out << ", threads " << s.threadCount();
   if (!s.packed_rows) out << ", generic rows";
   if (s.compact_sphere_rows)
@@ -103,6 +106,9 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
     out << "  detection margin checked: " << s.redetection_steps << " steps detected again, "
         << s.margin_outrun_steps << " outran the margin after "
         << sweep::TimeStepper::kMaxRedetections + 1 << " detections\n";
+  if (s.projection_steps > 0)
+    out << "  position projection: " << s.projection_steps << " steps projected, "
+        << s.projection_rounds << " rounds, " << s.projection_iterations << " solver iterations\n";
   if (s.updates > 0)
     out << "  solver: " << s.updates << " local solves, "
         << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";

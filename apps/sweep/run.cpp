@@ -303,6 +303,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     summary.max_solves = std::max(summary.max_solves, s.solves);
     summary.redetection_steps += s.redetections > 0 ? 1 : 0;
     summary.margin_outrun_steps += s.margin_outrun ? 1 : 0;
+    summary.projection_steps += s.projection_rounds > 0 ? 1 : 0;
+    summary.projection_rounds += s.projection_rounds;
+    summary.projection_iterations += s.projection_iterations;
     summary.max_active = std::max(summary.max_active, s.active);
     summary.updates += s.updates;
     summary.solve_seconds += s.t_solve;

@@ -92,6 +92,8 @@ struct RunSummary {
   // outran the margin, and steps that still did after the last detection allowed
   bool margin_verified = false;
   long redetection_steps = 0, margin_outrun_steps = 0;
+  // scheme.projection: steps that projected, rounds and solver iterations over all steps
+  long projection_steps = 0, projection_rounds = 0, projection_iterations = 0;
   long updates = 0;            // local solves, all steps
   double solve_seconds = 0.0;  // time in stage 5, all steps
   double energy_initial = 0.0, energy_final = 0.0;

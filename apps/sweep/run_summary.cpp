@@ -80,7 +80,10 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
                    {"mean_solves", s.mean_solves},
                    {"max_solves", s.max_solves},
                    {"redetection_steps", s.redetection_steps},
-                   {"margin_outrun_steps", s.margin_outrun_steps}};
+                   {"margin_outrun_steps", s.margin_outrun_steps},
+                   {"projection_steps", s.projection_steps},
+                   {"projection_rounds", s.projection_rounds},
+                   {"projection_iterations", s.projection_iterations}};
   j["solver"] = {{"updates", s.updates},
                  {"solve_seconds", s.solve_seconds},
                  {"ns_per_update",

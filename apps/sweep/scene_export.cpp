@@ -400,6 +400,9 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "screening" << YAML::Value << s.screening;
   out << YAML::Key << "screening_rounds" << YAML::Value << s.screening_rounds;
   if (s.screening_gap >= 0.0) out << YAML::Key << "screening_gap" << YAML::Value << s.screening_gap;
+  out << YAML::Key << "projection" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+      << "max_rounds" << YAML::Value << s.projection.max_rounds << YAML::Key << "tolerance"
+      << YAML::Value << s.projection.tolerance << YAML::EndMap;
   out << YAML::Key << "threads" << YAML::Value << s.threads;
   out << YAML::EndMap;
   out << YAML::Key << "time" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "step"

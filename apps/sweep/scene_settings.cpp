@@ -75,7 +75,7 @@ SolverSettings SceneParser::parseSolver(const YamlField& f, SolverSettings s, bo
 void SceneParser::parseScheme(const YamlField& f) {
   f.allowOnly({"name", "normal_law", "tangents", "threshold", "threshold_updates", "open_contacts",
                "coulomb", "normal_stage", "friction_stage", "screening", "screening_rounds",
-               "screening_gap", "threads"});
+               "screening_gap", "projection", "threads"});
   SchemeSettings& s = out_.run.scheme;
   if (f.has("name")) s.scheme = f.choice("name", s.scheme);
   s.normal_law = f.choice("normal_law", NormalLaw::Vel);
@@ -90,6 +90,14 @@ void SceneParser::parseScheme(const YamlField& f) {
   if (rounds < 1 || rounds > 1000) f["screening_rounds"].fail("must be in [1, 1000]");
   s.screening_rounds = static_cast<int>(rounds);
   if (f.has("screening_gap")) s.screening_gap = f.nonNegative("screening_gap", 0.0);
+  if (f.has("projection")) {
+    const YamlField p = f["projection"];
+    p.allowOnly({"max_rounds", "tolerance"});
+    const long max_rounds = p.integer("max_rounds", s.projection.max_rounds);
+    if (max_rounds < 0 || max_rounds > 100) p["max_rounds"].fail("must be in [0, 100] (0: off)");
+    s.projection.max_rounds = static_cast<int>(max_rounds);
+    s.projection.tolerance = p.positive("tolerance", s.projection.tolerance);
+  }
   const long threads = f.integer("threads", s.threads);
   if (threads < 0 || threads > 1024) f["threads"].fail("must be in [0, 1024] (0: every core)");
   s.threads = static_cast<int>(threads);

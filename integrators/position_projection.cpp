@@ -1,0 +1,88 @@
+#include "integrators/position_projection.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "framework/configuration.hpp"
+#include "framework/dynamics.hpp"
+#include "framework/kinematics.hpp"
+#include "framework/parallel.hpp"
+
+namespace sweep {
+
+ProjectionData::ProjectionData(const Model& model, const ContactModel& cmodel)
+    : contacts(model, cmodel),
+      problem_ws(model),
+      zero(VectorX::Zero(model.nv)),
+      dq(VectorX::Zero(model.nv)),
+      q(model.nq) {
+  problem.pack_rows = problem.pack_body_form = problem.compact_spheres = false;
+}
+
+namespace stepping {
+
+namespace {
+
+// The deepest violation at the configuration data holds: overlaps of the projection's
+// contacts, and joint limits passed.
+double deepestViolation(const Model& model, const ContactData& cdata, const VectorX& q,
+                        int threads) {
+  const auto& contacts = cdata.contacts;
+  const double overlap = reduceInChunks(
+      static_cast<long>(contacts.size()), threads, 0.0,
+      [&](long c, double& deepest) { deepest = std::max(deepest, -contacts[c].gap); },
+      [](double& deepest, double part) { deepest = std::max(deepest, part); });
+  double deepest = overlap;
+  for (const JointLimit& limit : model.limits)
+    deepest = std::max(deepest, -limit.side * (q[limit.q_index] - limit.bound));
+  return deepest;
+}
+
+}  // namespace
+
+void projectPositions(const StepModel& m, StepData& d) {
+  const SchemeSettings::Projection& settings = m.settings.projection;
+  d.stats.projection_rounds = d.stats.projection_iterations = 0;
+  if (settings.max_rounds <= 0) return;
+  const auto start = std::chrono::steady_clock::now();
+  if (!d.projection) d.projection = std::make_unique<ProjectionData>(m.model, m.cmodel);
+  ProjectionData& p = *d.projection;
+  const double size = m.cmodel.smallest_size > 0.0 ? m.cmodel.smallest_size : 1.0;
+  const double allowed = settings.tolerance * size;
+  // the step's margins: what a round moves a body by (an overlap) is far below them
+  const DetectionMargins margins{d.stats.margin_balls, d.stats.margin};
+  const std::vector<ActuatorCommand>* commands =
+      d.actuator_command.empty() ? nullptr : &d.actuator_command;
+  for (int round = 0; round < settings.max_rounds; ++round) {
+    forwardKinematics(m.model, d.model_data, d.q, p.zero);
+    detectContacts(m.model, d.model_data, m.cmodel, p.contacts, d.t, margins, m.threads);
+    if (!(deepestViolation(m.model, p.contacts, d.q, m.threads) > allowed)) break;
+    // M(q) built and factored (the acceleration is not used)
+    forwardDynamicsFromKinematics(m.model, d.model_data, p.zero, p.zero);
+    assembleContactJacobian(m.model, d.model_data, m.cmodel, p.contacts, d.t);
+    assemblePositionProblem(m.model, d.model_data, m.cmodel, p.contacts, d.t, d.q, p.zero,
+                            p.problem, p.problem_ws, m.threads, commands);
+    const int n = p.problem.size();
+    // Overlaps are pushed back to half the tolerance, not to zero: a contact left a hair open
+    // would be open for VEL at the next step, and a body at rest would fall h^2 g / 2 and
+    // land again at every step.
+    for (int c = 0; c < n; ++c)
+      if (!p.problem.isBilateral(c)) p.problem.normal_bias[c] += 0.5 * allowed;
+    p.solver_ws.prepare(n, m.model.nv, static_cast<int>(m.model.components.size()));
+    p.lambda.assign(n, 0.0);
+    p.dq.setZero();
+    const SolverStats solve =
+        solveNormalStage(p.problem, m.settings.normal_stage, p.lambda, p.dq, p.solver_ws);
+    ++d.stats.projection_rounds;
+    d.stats.projection_iterations += solve.iterations;
+    if (!p.dq.allFinite()) break;  // a failed solve moves nothing; the run's checks report it
+    integrate(m.model, d.q, p.dq, p.q, m.threads);
+    normalizeConfiguration(m.model, p.q, m.threads);
+    d.q.swap(p.q);
+  }
+  d.stats.t_update +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace stepping
+}  // namespace sweep

@@ -1,0 +1,28 @@
+#pragma once
+// Position projection after a step (scheme.projection), for either scheme: the direct
+// projection of Siconos' MoreauJeanDirectProjectionOSI (Acary 2013, "Projected event-capturing
+// time-stepping schemes for nonsmooth mechanical systems with unilateral contact and Coulomb's
+// friction", CMAME 256, 224-250). At q_{k+1}, with v_{k+1} left as the step made it,
+//
+//   min_dq  1/2 dq^T M(q) dq   s.t.  g_c(q) + W_N,c(q)^T dq >= 0   (contacts, joint limits),
+//                                    g_c(q) + W_N,c(q)^T dq  = 0   (bilateral constraints),
+//
+// whose dual is the frictionless normal problem 0 <= g + W_N^T M^-1 W_N lambda _|_ lambda >= 0:
+// stage 5a's program on a zero velocity with the gaps as its bias (a POS row with tau = 1),
+// solved by the normal stage's solver (scheme.normal_stage). Then q <- q (+) M^-1 W_N lambda,
+// and again from the new q while the deepest overlap exceeds the tolerance, up to max_rounds.
+// Contacts are pushed back to half the tolerance's overlap, not to zero, so that they stay
+// closed for VEL at the next step.
+// The velocities are not touched, so no energy enters them: what VEL keeps of an impact's
+// overlap (about h times the landing speed) is pushed out within the next step, where POS
+// turns it into a separation speed. Driven bodies do not move; a prescribed joint's constraint
+// is held at its commanded position.
+#include "integrators/step_data.hpp"
+
+namespace sweep::stepping {
+
+// scheme.projection: after update (6) and before the diagnostics. Adds its rounds and its
+// solver's iterations to d.stats (projection_rounds, projection_iterations).
+void projectPositions(const StepModel& m, StepData& d);
+
+}  // namespace sweep::stepping
