@@ -39,9 +39,11 @@ void ProblemAssembly::run(const std::vector<char>* deferred, int threads) {
   appendJointLimits();
   appendConstraints();
   numberIslands();
-  if (position_level) {
+  if (position_level) {  // no driven body's velocity, and so no restitution term either
     std::fill(p.known.begin(), p.known.end(), Vector3::Zero());
     std::fill(p.rolling_known.begin(), p.rolling_known.end(), Vector2::Zero());
+    std::fill(p.velocity_start.begin(), p.velocity_start.end(), Vector3::Zero());
+    p.normal_bias = p.gap;
   }
   // packed rows have no bilateral case: such problems take the generic paths
   if (p.pack_rows && p.bilateral.empty()) {
@@ -341,11 +343,12 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
 void assemblePositionProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                              const ContactData& cdata, double t, const VectorX& q,
                              const VectorX& zero, ContactProblem& p, ContactProblemWorkspace& ws,
-                             int threads, const std::vector<ActuatorCommand>* commands) {
+                             const std::vector<char>* left_out, int threads,
+                             const std::vector<ActuatorCommand>* commands) {
   ProblemAssembly assembly{model, data, cmodel, cdata, t,       NormalLaw::Pos, 1.0,
                            q,     zero, p,      ws,    nullptr, commands};
   assembly.position_level = true;
-  assembly.run(nullptr, threads);
+  assembly.run(left_out, threads);
 }
 
 }  // namespace sweep

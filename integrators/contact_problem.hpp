@@ -497,12 +497,14 @@ void assembleContactProblem(const Model& model, const Data& data, const ContactM
 // The rows of a position projection at q (integrators/position_projection.hpp): every detected
 // contact, the violated joint limits and the constraints by functions, each a POS row on the
 // displacement dq (zero: a zero vector of nv entries) with tau = 1, U_N(dq) + g(q) >= 0, no
-// known velocity, a driven constraint at its drive's value at t. Rows in the generic arrays
-// (set p.pack_rows and p.pack_body_form false).
+// known velocity, a driven constraint at its drive's value at t; left_out as
+// assembleContactProblem's `deferred`. Rows in the generic arrays (set p.pack_rows and
+// p.pack_body_form false).
 void assemblePositionProblem(const Model& model, const Data& data, const ContactModel& cmodel,
                              const ContactData& cdata, double t, const VectorX& q,
                              const VectorX& zero, ContactProblem& p, ContactProblemWorkspace& ws,
-                             int threads, const std::vector<ActuatorCommand>* commands);
+                             const std::vector<char>* left_out, int threads,
+                             const std::vector<ActuatorCommand>* commands);
 
 // The normal law's offset on U_N(k+1): U*_N = U_N(k+1) + normalBias(...) >= 0 for a contact
 // in the index set, with u_start = U_N(k) and the gap at q_m.

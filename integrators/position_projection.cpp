@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 
 #include "framework/configuration.hpp"
 #include "framework/dynamics.hpp"
@@ -51,17 +52,33 @@ void projectPositions(const StepModel& m, StepData& d) {
   const double allowed = settings.tolerance * size;
   // the step's margins: what a round moves a body by (an overlap) is far below them
   const DetectionMargins margins{d.stats.margin_balls, d.stats.margin};
+  // The scheme's own solver (Jean-Moreau's sweeps, with their acceleration; the staggered
+  // scheme's stage 5a solver), stopped at a relative residual of 1e-3 at most: that error in
+  // a displacement as deep as the tolerance is a thousandth of it.
+  SolverSettings solver = m.settings.scheme == Scheme::MoreauJean ? m.settings.coulomb
+                                                                   : m.settings.normal_stage;
+  if (m.settings.scheme == Scheme::MoreauJean) solver.solver = StageSolver::Nlgs;
+  solver.tolerance = std::max(solver.tolerance, 1e-3);
   const std::vector<ActuatorCommand>* commands =
       d.actuator_command.empty() ? nullptr : &d.actuator_command;
   for (int round = 0; round < settings.max_rounds; ++round) {
     forwardKinematics(m.model, d.model_data, d.q, p.zero);
     detectContacts(m.model, d.model_data, m.cmodel, p.contacts, d.t, margins, m.threads);
-    if (!(deepestViolation(m.model, p.contacts, d.q, m.threads) > allowed)) break;
+    const double deepest = deepestViolation(m.model, p.contacts, d.q, m.threads);
+    if (!(deepest > allowed)) break;
+    // A round moves a body by about the deepest overlap: a candidate farther than twice that
+    // cannot close in it (one that does is the next round's), and stays out of the program.
+    const double reach = 2.0 * deepest + allowed;
+    const int candidates = static_cast<int>(p.contacts.contacts.size());
+    p.far.resize(candidates);
+    forEachIndex(candidates, m.threads,
+                 [&](int c) { p.far[c] = p.contacts.contacts[c].gap > reach; });
     // M(q) built and factored (the acceleration is not used)
     forwardDynamicsFromKinematics(m.model, d.model_data, p.zero, p.zero);
-    assembleContactJacobian(m.model, d.model_data, m.cmodel, p.contacts, d.t);
+    assembleContactJacobian(m.model, d.model_data, m.cmodel, p.contacts, d.t,
+                            std::numeric_limits<double>::infinity(), &p.far);
     assemblePositionProblem(m.model, d.model_data, m.cmodel, p.contacts, d.t, d.q, p.zero,
-                            p.problem, p.problem_ws, m.threads, commands);
+                            p.problem, p.problem_ws, &p.far, m.threads, commands);
     const int n = p.problem.size();
     // Overlaps are pushed back to half the tolerance, not to zero: a contact left a hair open
     // would be open for VEL at the next step, and a body at rest would fall h^2 g / 2 and
@@ -71,8 +88,7 @@ void projectPositions(const StepModel& m, StepData& d) {
     p.solver_ws.prepare(n, m.model.nv, static_cast<int>(m.model.components.size()));
     p.lambda.assign(n, 0.0);
     p.dq.setZero();
-    const SolverStats solve =
-        solveNormalStage(p.problem, m.settings.normal_stage, p.lambda, p.dq, p.solver_ws);
+    const SolverStats solve = solveNormalStage(p.problem, solver, p.lambda, p.dq, p.solver_ws);
     ++d.stats.projection_rounds;
     d.stats.projection_iterations += solve.iterations;
     if (!p.dq.allFinite()) break;  // a failed solve moves nothing; the run's checks report it

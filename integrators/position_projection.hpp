@@ -9,7 +9,9 @@
 //
 // whose dual is the frictionless normal problem 0 <= g + W_N^T M^-1 W_N lambda _|_ lambda >= 0:
 // stage 5a's program on a zero velocity with the gaps as its bias (a POS row with tau = 1),
-// solved by the normal stage's solver (scheme.normal_stage). Then q <- q (+) M^-1 W_N lambda,
+// solved by the scheme's solver (Jean-Moreau: Gauss-Seidel sweeps with scheme.coulomb's
+// settings; the staggered scheme: scheme.normal_stage's), to a relative residual of 1e-3.
+// Candidates farther than twice the deepest overlap stay out of a round. Then q <- q (+) M^-1 W_N lambda,
 // and again from the new q while the deepest overlap exceeds the tolerance, up to max_rounds.
 // Contacts are pushed back to half the tolerance's overlap, not to zero, so that they stay
 // closed for VEL at the next step.

@@ -117,6 +117,7 @@ struct ProjectionData {
   SolverWorkspace solver_ws;
   VectorX zero, dq, q;
   std::vector<double> lambda;
+  std::vector<char> far;  // by contact: too far to close in a round, left out of it
 };
 
 // Everything a step computes. Vectors "by contact" are aligned with
