@@ -23,10 +23,11 @@ CASES = {
                ["--set-file", "examples/powder_bed/fast.yaml"], None),
     "arm": ("examples/archetypes/arm_on_table.yaml", [], None),
 }
+OFF = ["--set", "scheme.projection.max_rounds=0"]  # the 3D scenes' default projects
 LAWS = {
-    "vel": ["--set", "scheme.normal_law=vel"],
-    "iqs": ["--set", "scheme.normal_law=iqs"],
-    "pos": ["--set", "scheme.normal_law=pos"],
+    "vel": ["--set", "scheme.normal_law=vel"] + OFF,
+    "iqs": ["--set", "scheme.normal_law=iqs"] + OFF,
+    "pos": ["--set", "scheme.normal_law=pos"] + OFF,
     "vel + projection": ["--set", "scheme.normal_law=vel", "--set",
                          "scheme.projection.max_rounds=3"],
 }

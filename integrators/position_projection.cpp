@@ -55,8 +55,8 @@ void projectPositions(const StepModel& m, StepData& d) {
   // The scheme's own solver (Jean-Moreau's sweeps, with their acceleration; the staggered
   // scheme's stage 5a solver), stopped at a relative residual of 1e-3 at most: that error in
   // a displacement as deep as the tolerance is a thousandth of it.
-  SolverSettings solver = m.settings.scheme == Scheme::MoreauJean ? m.settings.coulomb
-                                                                   : m.settings.normal_stage;
+  SolverSettings solver =
+      m.settings.scheme == Scheme::MoreauJean ? m.settings.coulomb : m.settings.normal_stage;
   if (m.settings.scheme == Scheme::MoreauJean) solver.solver = StageSolver::Nlgs;
   solver.tolerance = std::max(solver.tolerance, 1e-3);
   const std::vector<ActuatorCommand>* commands =
@@ -77,14 +77,41 @@ void projectPositions(const StepModel& m, StepData& d) {
     forwardDynamicsFromKinematics(m.model, d.model_data, p.zero, p.zero);
     assembleContactJacobian(m.model, d.model_data, m.cmodel, p.contacts, d.t,
                             std::numeric_limits<double>::infinity(), &p.far);
+    // Held where they are (W_N^T dq >= 0), not counted as violations: contacts with
+    // restitution, whose overlap is the last bounce's (VEL keeps an inelastic impact's h v
+    // whole, an elastic one's shrinks with the bounces), and contacts whose bodies separate
+    // fast enough to leave the overlap within the next step. Lifting either would hand a
+    // rebound the overlap's potential energy: a ball with e = 0.9 kept bouncing at about
+    // g h / (1 - e^2) where Moreau's scheme brings it to rest.
+    const ContactJacobian& J = p.contacts.jacobian;
+    const double h = m.settings.h;
+    p.leaving.resize(candidates);
+    forEachIndex(candidates, m.threads, [&](int c) {
+      const double gap = p.contacts.contacts[c].gap;
+      p.leaving[c] =
+          !p.far[c] && gap < 0.0 &&
+          (p.contacts.contacts[c].restitution > 0.0 || J.relativeVelocity(c, d.v).x() * h >= -gap);
+    });
+    double violated = 0.0;
+    for (int c = 0; c < candidates; ++c)
+      if (!p.far[c] && !p.leaving[c]) violated = std::max(violated, -p.contacts.contacts[c].gap);
+    for (const JointLimit& limit : m.model.limits)
+      violated = std::max(violated, -limit.side * (d.q[limit.q_index] - limit.bound));
+    if (!(violated > allowed)) break;
     assemblePositionProblem(m.model, d.model_data, m.cmodel, p.contacts, d.t, d.q, p.zero,
                             p.problem, p.problem_ws, &p.far, m.threads, commands);
     const int n = p.problem.size();
     // Overlaps are pushed back to half the tolerance, not to zero: a contact left a hair open
     // would be open for VEL at the next step, and a body at rest would fall h^2 g / 2 and
     // land again at every step.
-    for (int c = 0; c < n; ++c)
-      if (!p.problem.isBilateral(c)) p.problem.normal_bias[c] += 0.5 * allowed;
+    for (int c = 0; c < n; ++c) {
+      if (p.problem.isBilateral(c)) continue;
+      const int id = p.problem.contact[c];
+      if (id >= 0 && p.leaving[id])
+        p.problem.normal_bias[c] = 0.0;
+      else
+        p.problem.normal_bias[c] += 0.5 * allowed;
+    }
     p.solver_ws.prepare(n, m.model.nv, static_cast<int>(m.model.components.size()));
     p.lambda.assign(n, 0.0);
     p.dq.setZero();

@@ -117,7 +117,8 @@ struct ProjectionData {
   SolverWorkspace solver_ws;
   VectorX zero, dq, q;
   std::vector<double> lambda;
-  std::vector<char> far;  // by contact: too far to close in a round, left out of it
+  std::vector<char> far;      // by contact: too far to close in a round, left out of it
+  std::vector<char> leaving;  // by contact: held, not pushed out (restitution, separating)
 };
 
 // Everything a step computes. Vectors "by contact" are aligned with
