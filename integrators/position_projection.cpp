@@ -24,16 +24,17 @@ namespace stepping {
 
 namespace {
 
-// The deepest violation at the configuration data holds: overlaps of the projection's
-// contacts, and joint limits passed.
+// The deepest violation at q: overlaps of the projection's contacts (but those marked in
+// `held`, when given), and joint limits passed.
 double deepestViolation(const Model& model, const ContactData& cdata, const VectorX& q,
-                        int threads) {
+                        const std::vector<char>* held, int threads) {
   const auto& contacts = cdata.contacts;
-  const double overlap = reduceInChunks(
+  double deepest = reduceInChunks(
       static_cast<long>(contacts.size()), threads, 0.0,
-      [&](long c, double& deepest) { deepest = std::max(deepest, -contacts[c].gap); },
-      [](double& deepest, double part) { deepest = std::max(deepest, part); });
-  double deepest = overlap;
+      [&](long c, double& part) {
+        if (held == nullptr || !(*held)[c]) part = std::max(part, -contacts[c].gap);
+      },
+      [](double& total, double part) { total = std::max(total, part); });
   for (const JointLimit& limit : model.limits)
     deepest = std::max(deepest, -limit.side * (q[limit.q_index] - limit.bound));
   return deepest;
@@ -64,7 +65,7 @@ void projectPositions(const StepModel& m, StepData& d) {
   for (int round = 0; round < settings.max_rounds; ++round) {
     forwardKinematics(m.model, d.model_data, d.q, p.zero);
     detectContacts(m.model, d.model_data, m.cmodel, p.contacts, d.t, margins, m.threads);
-    const double deepest = deepestViolation(m.model, p.contacts, d.q, m.threads);
+    const double deepest = deepestViolation(m.model, p.contacts, d.q, nullptr, m.threads);
     if (!(deepest > allowed)) break;
     // A round moves a body by about the deepest overlap: a candidate farther than twice that
     // cannot close in it (one that does is the next round's), and stays out of the program.
@@ -92,12 +93,8 @@ void projectPositions(const StepModel& m, StepData& d) {
           !p.far[c] && gap < 0.0 &&
           (p.contacts.contacts[c].restitution > 0.0 || J.relativeVelocity(c, d.v).x() * h >= -gap);
     });
-    double violated = 0.0;
-    for (int c = 0; c < candidates; ++c)
-      if (!p.far[c] && !p.leaving[c]) violated = std::max(violated, -p.contacts.contacts[c].gap);
-    for (const JointLimit& limit : m.model.limits)
-      violated = std::max(violated, -limit.side * (d.q[limit.q_index] - limit.bound));
-    if (!(violated > allowed)) break;
+    // (far candidates overlap nothing)
+    if (!(deepestViolation(m.model, p.contacts, d.q, &p.leaving, m.threads) > allowed)) break;
     assemblePositionProblem(m.model, d.model_data, m.cmodel, p.contacts, d.t, d.q, p.zero,
                             p.problem, p.problem_ws, &p.far, m.threads, commands);
     const int n = p.problem.size();

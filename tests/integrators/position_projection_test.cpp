@@ -23,22 +23,36 @@ SchemeSettings projecting(Scheme scheme, int rounds) {
   return s;
 }
 
+// A ball of radius r (0.1 m), restitution e, sunk 4 mm into a floor, at rest.
+struct SunkBall {
+  static constexpr double r = 0.1, sunk = 0.004;
+  Model model;
+  ContactModel cmodel;
+  VectorX q;
+  explicit SunkBall(double e) {
+    ModelBuilder mb("ball in floor");
+    addFreeBody(mb, "ball", solidSphereInertia(2.0, r));
+    mb.setGravity(Vector3(0, 0, -9.81));
+    model = mb.build();
+    ContactModelBuilder cb(model);
+    cb.materials().setDefaultLaw({0.5, e});
+    cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(r));
+    cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+    cmodel = cb.build();
+    q = model.neutralConfiguration();
+    q[2] = r - sunk;
+  }
+};
+
 // A ball resting 4 mm into a floor under VEL: VEL keeps the overlap (its velocity stays 0),
 // the projection puts the ball back to half the tolerance's overlap and leaves v as the step
 // made it, to the bit.
 TEST(PositionProjection, PushesAnOverlapOutAtFixedVelocities) {
-  const double r = 0.1, sunk = 0.004;
-  ModelBuilder mb("ball in floor");
-  addFreeBody(mb, "ball", solidSphereInertia(2.0, r));
-  mb.setGravity(Vector3(0, 0, -9.81));
-  const Model model = mb.build();
-  ContactModelBuilder cb(model);
-  cb.materials().setDefaultLaw({0.5, 0.0});
-  cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(r));
-  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
-  const ContactModel cmodel = cb.build();
-  VectorX q = model.neutralConfiguration();
-  q[2] = r - sunk;
+  const SunkBall ball(0.0);
+  const Model& model = ball.model;
+  const ContactModel& cmodel = ball.cmodel;
+  const VectorX& q = ball.q;
+  const double r = SunkBall::r, sunk = SunkBall::sunk;
   for (Scheme scheme : {Scheme::MoreauJean, Scheme::CatchingUp}) {
     SCOPED_TRACE(enumName(scheme));
     TimeStepper plain(model, cmodel, projecting(scheme, 0));
@@ -61,18 +75,10 @@ TEST(PositionProjection, PushesAnOverlapOutAtFixedVelocities) {
 // With restitution the overlap is the last bounce's, and lifting it would hand the next
 // rebound its potential energy: such a contact is held, not pushed out.
 TEST(PositionProjection, LeavesContactsWithRestitutionWhereTheyAre) {
-  const double r = 0.1;
-  ModelBuilder mb("bouncing ball");
-  addFreeBody(mb, "ball", solidSphereInertia(1.0, r));
-  mb.setGravity(Vector3(0, 0, -9.81));
-  const Model model = mb.build();
-  ContactModelBuilder cb(model);
-  cb.materials().setDefaultLaw({0.0, 0.9});
-  cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(r));
-  cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
-  const ContactModel cmodel = cb.build();
-  VectorX q = model.neutralConfiguration();
-  q[2] = r - 0.004;
+  const SunkBall ball(0.9);
+  const Model& model = ball.model;
+  const ContactModel& cmodel = ball.cmodel;
+  const VectorX& q = ball.q;
   TimeStepper plain(model, cmodel, projecting(Scheme::MoreauJean, 0));
   TimeStepper projected(model, cmodel, projecting(Scheme::MoreauJean, 3));
   plain.reset(0.0, q, VectorX::Zero(6));
