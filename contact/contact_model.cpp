@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "contact/convex_hull.hpp"
 #include "contact/mesh_io.hpp"
 #include "contact/narrowphase_analytic.hpp"
 #include "framework/error.hpp"
@@ -65,6 +66,15 @@ std::string describe(const ContactModel& cmodel) {
         << "xyz"[cmodel.settings.periodic.axis] << " on [" << cmodel.settings.periodic.low << ", "
         << cmodel.settings.periodic.high << ")";
   return out.str();
+}
+
+bool ContactModelBuilder::moves(const Geometry& g) const {
+  if (!g.body.hasDofs()) return false;
+  // a link welded to the world by fixed joints (a URDF's base under a "world" link) is as
+  // still as the world: its pairs with the world's shapes would be rows without velocities
+  for (int b = g.body.index; b >= 0; b = model_.bodies[b].parent)
+    if (model_.bodies[b].joint.type != JointType::Fixed) return true;
+  return false;
 }
 
 std::string ContactModelBuilder::ownerName(const Geometry& g) const {
@@ -136,7 +146,10 @@ void ContactModelBuilder::addModelCollisions(int material, const std::vector<int
               "' (mesh): " + c.missing_mesh +
               " (urdf[].missing_meshes: skip or inertia_box loads the robot without it)");
         try {
-          shape = Shape::triangleMesh(loadTriangleMesh(c.mesh_file, c.mesh_scale));
+          const auto mesh = loadTriangleMesh(c.mesh_file, c.mesh_scale);
+          // the hull as a closed triangle surface: the closed forms against balls, boxes and
+          // capsules take it, where a convex mesh would send those pairs to FCL's single point
+          shape = Shape::triangleMesh(c.mesh_hull ? convexHull(*mesh, c.mesh_file) : mesh);
         } catch (const InputError& e) {
           throw InputError("body '" + model_.bodies[c.body].name + "', shape '" + name +
                            "' (mesh): " + e.what());
@@ -176,7 +189,7 @@ void ContactModelBuilder::addPeriodicCoordinates(ContactModel& cm) const {
     throw InputError("detection.periodic.axis: a 2D scene repeats along x or y, got z");
   double largest = 0.0;
   for (const Geometry& g : geometries_) {
-    if (!g.body.hasDofs()) continue;
+    if (!moves(g)) continue;
     const Body& body = model_.bodies[g.body.index];
     const bool ball = g.shape.type == ShapeType::Sphere || g.shape.type == ShapeType::Disk;
     const bool free_body = body.parent < 0 && (body.joint.type == JointType::Floating ||
@@ -226,7 +239,7 @@ ContactModel ContactModelBuilder::build() const {
   std::map<ShapeType, int> all;
   for (const Geometry& g : geometries_) {
     ++all[g.shape.type];
-    if (g.body.hasDofs()) moving.insert(g.shape.type);
+    if (moves(g)) moving.insert(g.shape.type);
   }
   std::string missing;
   for (ShapeType m : moving)
@@ -255,7 +268,7 @@ ContactModel ContactModelBuilder::build() const {
 
   double smallest = std::numeric_limits<double>::infinity();
   for (const Geometry& g : geometries_)
-    if (g.body.hasDofs() && !isUnbounded(g.shape))
+    if (moves(g) && !isUnbounded(g.shape))
       smallest = std::min(smallest, characteristicSize(g.shape));
   cm.smallest_size = std::isfinite(smallest) ? smallest : 0.0;
   cm.margin_floor = settings_.floor >= 0.0 ? settings_.floor : 1e-3 * cm.smallest_size;
@@ -265,7 +278,7 @@ ContactModel ContactModelBuilder::build() const {
     f.body_ref = g.body;
     f.material = g.material;
     f.type = g.shape.type;
-    f.moving = g.body.hasDofs();
+    f.moving = moves(g);
     f.unbounded = isUnbounded(g.shape);
     f.identity_placement =
         g.placement.translation.isZero(0.0) && g.placement.rotation == Matrix3::Identity();

@@ -172,6 +172,8 @@ class ContactModelBuilder {
   ContactModel build() const;
 
  private:
+  // on a body with dofs somewhere between it and the world
+  bool moves(const Geometry& g) const;
   std::string ownerName(const Geometry& g) const;
   void addPeriodicCoordinates(ContactModel& cm) const;
 

@@ -32,8 +32,9 @@ double reducedRadius(double radius_a, double radius_b) {
 // ball, so that the cell size stays near one grain diameter.
 void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
   std::vector<double> radii;
-  for (const Geometry& g : cmodel.geometries)
-    if (isBall(g.shape.type) && g.body.hasDofs()) radii.push_back(g.shape.radius);
+  for (int i = 0; i < cmodel.size(); ++i)
+    if (isBall(cmodel.geometries[i].shape.type) && cmodel.traits[i].moving)
+      radii.push_back(cmodel.geometries[i].shape.radius);
   double median = 0.0;
   if (!radii.empty()) {
     std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
@@ -42,7 +43,7 @@ void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
   for (int i = 0; i < cmodel.size(); ++i) {
     const Geometry& g = cmodel.geometries[i];
     const bool particle =
-        isBall(g.shape.type) && g.body.hasDofs() && g.shape.radius <= 4.0 * median;
+        isBall(g.shape.type) && cmodel.traits[i].moving && g.shape.radius <= 4.0 * median;
     (particle ? cdata.particles : cdata.large).push_back(i);
   }
   for (std::size_t l = 0; l < cdata.large.size(); ++l)

@@ -5,6 +5,7 @@
 #include <map>
 #include <vector>
 
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -29,6 +30,10 @@ std::shared_ptr<TriangleMesh> loadTriangleMesh(const std::string& path, const Ve
                        formatValue(scale.x()) + " " + formatValue(scale.y()) + " " +
                        formatValue(scale.z()) + "]");
   Assimp::Importer importer;
+  // A COLLADA file is read as ROS reads it (RViz, Gazebo, MoveIt): its <unit> scales it, its
+  // <up_axis> does not turn it. assimp's default turns Z_UP files, the CAD exports robot
+  // packages ship, a quarter turn about x into its own Y-up frame.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
   // identical vertices are merged so that edge sharing (manifold checks) can be seen
   const aiScene* scene = importer.ReadFile(
       path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);

@@ -107,6 +107,7 @@ struct CollisionGeometry {
   Vector3 box_size = Vector3::Zero();  // full edge lengths
   std::string mesh_file;
   Vector3 mesh_scale = Vector3::Ones();
+  bool mesh_hull = false;  // the mesh's convex hull rather than its triangles
   // why the mesh file the URDF names was not found (empty: it was); the geometry is then a
   // box standing for it, or still a mesh that the contact layer refuses with this reason
   std::string missing_mesh;

@@ -240,6 +240,7 @@ class Importer {
                             number(m.scale.x) + " " + number(m.scale.y) + " " + number(m.scale.z) +
                             "\"");
           g.mesh_file = resolveMesh(m.filename, g.missing_mesh);
+          g.mesh_hull = options_.collision_meshes == CollisionMeshes::ConvexHull;
           if (!g.missing_mesh.empty() && options_.missing_meshes != MissingMeshes::Refuse) {
             const bool boxed =
                 options_.missing_meshes == MissingMeshes::InertiaBox && inertiaBox(link, g);

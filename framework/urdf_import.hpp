@@ -19,6 +19,16 @@ struct EnumNames<MissingMeshes> {
                                                       {MissingMeshes::InertiaBox, "inertia_box"}};
 };
 
+// What a link's collision mesh is in contact: the closed surface of its convex hull (the
+// default, as MuJoCo, PyBullet and Drake's point contact take meshes: CAD exports are rarely
+// manifold), or its own triangles as a non-convex surface, which must then be manifold.
+enum class CollisionMeshes { ConvexHull, Triangles };
+template <>
+struct EnumNames<CollisionMeshes> {
+  static constexpr EnumName<CollisionMeshes> table[] = {
+      {CollisionMeshes::ConvexHull, "convex_hull"}, {CollisionMeshes::Triangles, "triangles"}};
+};
+
 struct UrdfOptions {
   // attach the root link to the world with a floating joint (else a fixed one); ignored when
   // the root link is named "world", whose child joints then attach to the world directly
@@ -33,6 +43,7 @@ struct UrdfOptions {
   // box with the link's mass and inertia at its inertial frame. What was replaced is kept in
   // CollisionGeometry::missing_mesh for the run's description.
   MissingMeshes missing_meshes = MissingMeshes::Refuse;
+  CollisionMeshes collision_meshes = CollisionMeshes::ConvexHull;
 };
 
 // Adds the URDF's tree to a builder; returns the builder index of the root body.

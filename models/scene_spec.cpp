@@ -340,6 +340,7 @@ Scene buildScene(const SceneSpec& spec) {
     options.name_prefix = urdf.prefix;
     options.package_paths = urdf.package_paths;
     options.missing_meshes = urdf.missing_meshes;
+    options.collision_meshes = urdf.collision_meshes;
     const int first = mb.bodyCount();
     addUrdf(mb, urdf.file, options);
     urdf_bodies.emplace_back(first, mb.bodyCount());

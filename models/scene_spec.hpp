@@ -74,6 +74,7 @@ struct UrdfSpec {
   std::optional<Vector3> written_rpy;      // as the file wrote it, for `export`
   std::vector<std::string> package_paths;  // resolved; UrdfOptions::package_paths
   MissingMeshes missing_meshes = MissingMeshes::Refuse;
+  CollisionMeshes collision_meshes = CollisionMeshes::ConvexHull;
   std::vector<std::pair<std::string, double>> joint_positions, joint_velocities;
   std::string material;  // of every link's collisions, unless link_materials names the link
   std::vector<std::pair<std::string, std::string>> link_materials;  // (link, material)

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "apps/sweep/run.hpp"
 
@@ -45,8 +47,24 @@ void ActuatorTally::add(const Model& model, const TimeStepper& stepper) {
 
 std::vector<ActuatorSummary> ActuatorTally::summary(const Model& model) const {
   std::vector<ActuatorSummary> rows = rows_;
-  for (std::size_t a = 0; a < rows.size(); ++a) rows[a].joint = model.actuators[a].joint;
+  for (std::size_t a = 0; a < rows.size(); ++a) {
+    rows[a].joint = model.actuators[a].joint;
+    rows[a].max_torque = model.actuators[a].max_torque;
+  }
   return rows;
+}
+
+std::string saturationNote(const std::vector<ActuatorSummary>& actuators, long steps) {
+  std::ostringstream note;
+  note << std::setprecision(4);
+  for (const ActuatorSummary& a : actuators) {
+    if (a.saturated_steps == 0) continue;
+    note << (note.tellp() > 0 ? ", " : "") << a.joint << " " << a.saturated_steps << " of " << steps
+         << " steps (|tau| <= " << a.max_torque << ")";
+  }
+  if (note.tellp() == 0) return "";
+  return "  actuators at their torque limit: " + note.str() +
+         "; urdf[].actuators.JOINT.max_torque sets a limit other than the URDF's effort\n";
 }
 
 nlohmann::ordered_json actuatorsJson(const std::vector<ActuatorSummary>& list) {

@@ -109,6 +109,7 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
   if (s.projection_steps > 0)
     out << "  position projection: " << s.projection_steps << " steps projected, "
         << s.projection_rounds << " rounds, " << s.projection_iterations << " solver iterations\n";
+  out << sweep::saturationNote(s.actuators, s.steps);
   if (s.updates > 0)
     out << "  solver: " << s.updates << " local solves, "
         << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";

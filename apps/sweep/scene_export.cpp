@@ -126,6 +126,7 @@ void emitUrdf(YAML::Emitter& out, const UrdfSpec& u, const std::string& file,
     out << YAML::EndSeq;
   }
   out << YAML::Key << "missing_meshes" << YAML::Value << enumName(u.missing_meshes);
+  out << YAML::Key << "collision_meshes" << YAML::Value << enumName(u.collision_meshes);
   out << YAML::Key << "floating" << YAML::Value << u.floating_base;
   out << YAML::Key << "position" << YAML::Value;
   emitVector(out, u.base.translation, 3);

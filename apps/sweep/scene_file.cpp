@@ -372,7 +372,7 @@ void SceneParser::parseUrdfs(const YamlField& list) {
     const YamlField f = list.at(i);
     f.allowOnly({"file", "prefix", "floating", "position", "rpy", "joints", "velocities",
                  "material", "link_materials", "joint_springs", "package_paths", "missing_meshes",
-                 "actuators"});
+                 "collision_meshes", "actuators"});
     UrdfSpec u;
     if (f.has("package_paths")) {
       const YamlField paths = f["package_paths"];
@@ -385,6 +385,7 @@ void SceneParser::parseUrdfs(const YamlField& list) {
       }
     }
     u.missing_meshes = f.choice("missing_meshes", MissingMeshes::Refuse);
+    u.collision_meshes = f.choice("collision_meshes", CollisionMeshes::ConvexHull);
     u.file = resolve(path_, f["file"].text());
     if (!fs::is_regular_file(u.file)) f["file"].fail("no such file (" + u.file + ")");
     u.prefix = f.text("prefix", "");

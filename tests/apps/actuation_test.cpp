@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <string>
 
@@ -216,6 +218,95 @@ TEST_P(Actuation, PrescribedJointsFollowTheirMotionAndReportTheirReaction) {
         << actuator.joint;
   }
   EXPECT_GT(gravity.cwiseAbs().maxCoeff(), 1.0);
+}
+
+// The UR10, KR5 and WAM from their description packages' layout (tests/data/packages: the
+// published kinematics, inertias and limits, stand-in meshes), their joints held by servos for
+// 1 s: settled on the gravity torques, within the servos' limits, no energy gained, and the
+// free-standing KR5 upright on its base's corners.
+TEST_P(Actuation, RealRobotsStandOnTheFloorOnTheirServos) {
+  const std::string packages = std::string(SWEEP_SOURCE_DIR) + "/tests/data/packages";
+  // the KR5's scene finds its package through the environment, as ROS tools do
+  const char* saved = std::getenv("ROS_PACKAGE_PATH");
+  const std::string previous = saved ? saved : "";
+  setenv("ROS_PACKAGE_PATH", (packages + "/src").c_str(), 1);
+  for (const char* robot : {"ur10", "kr5", "wam"}) {
+    SCOPED_TRACE(robot);
+    const SceneFile file = loadSceneFile(packages + "/scenes/" + robot + "_on_floor.yaml",
+                                         {std::string("scheme.name=") + GetParam()});
+    const Scene scene = buildSceneFile(file);
+    TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+    stepper.reset(0.0, scene.q0, scene.v0);
+    ActuatorTally tally(scene.model);
+    double start = -1.0, highest = -1.0;
+    for (int k = 0; k < 1000; ++k) {
+      stepper.step();
+      ASSERT_TRUE(stepper.q().allFinite()) << "step " << k + 1;
+      tally.add(scene.model, stepper);
+      const double energy = stepper.stats().kinetic + stepper.stats().potential;
+      if (k == 0) start = energy;
+      highest = std::max(highest, energy);
+    }
+    // the servos' dampers only take energy out
+    EXPECT_LE(highest, start + 1e-9 * std::abs(start));
+    EXPECT_LT(stepper.v().cwiseAbs().maxCoeff(), 1e-3);
+    Data data(scene.model);
+    const VectorX gravity = gravityForces(scene.model, data, stepper.q());
+    const std::vector<ActuatorSummary> actuators = tally.summary(scene.model);
+    for (std::size_t a = 0; a < actuators.size(); ++a) {
+      const JointActuator& actuator = scene.model.actuators[a];
+      EXPECT_EQ(actuators[a].saturated_steps, 0) << actuator.joint;
+      // a servo sags by its load over kp: 1.2e-3 rad at the UR10's shoulder (115 N m, 1e5)
+      EXPECT_LT(actuators[a].max_tracking_error, 1.5e-3) << actuator.joint;
+      // at rest each servo carries its joint's gravity torque (the KR5's floor pushes on its
+      // base only, which no arm joint moves)
+      EXPECT_NEAR(stepper.actuatorTorques()[a], gravity[actuator.v_index],
+                  1e-3 * gravity.cwiseAbs().maxCoeff())
+          << actuator.joint;
+    }
+    if (std::string(robot) == "kr5") {
+      const Body& base = scene.model.bodies[scene.model.bodyIndex("base_link")];
+      ASSERT_EQ(base.joint.type, JointType::Floating);
+      EXPECT_NEAR(stepper.q()[base.q_index + 2], 0.0, 1e-4);  // height: within the margin
+      EXPECT_LT(stepper.q().segment<3>(base.q_index + 3).norm(), 1e-4);  // upright
+      EXPECT_GE(stepper.stats().active, 3);  // of its four corners: one may rest at a zero gap
+    }
+  }
+  if (saved)
+    setenv("ROS_PACKAGE_PATH", previous.c_str(), 1);
+  else
+    unsetenv("ROS_PACKAGE_PATH");
+}
+
+// The WAM's URDF efforts (1.8 N m on its shoulder) cannot hold its arm: the servos sit at their
+// limit and the run says so in its closing lines.
+TEST_P(Actuation, TheUrdfsEffortsAsLimitsAreReportedWhenTheServosSitAtThem) {
+  const std::string packages = std::string(SWEEP_SOURCE_DIR) + "/tests/data/packages";
+  const std::string path = packages + "/scenes/wam_on_floor.yaml";
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string without_limits =
+      std::regex_replace(text.str(), std::regex(", max_torque: [0-9.]+"), "") +
+      "scheme: {name: " + GetParam() + "}\n";
+  const SceneFile file = loadSceneText(without_limits, path);
+  const Scene scene = buildSceneFile(file);
+  EXPECT_EQ(scene.model.actuators[1].max_torque, 1.8);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  ActuatorTally tally(scene.model);
+  for (int k = 0; k < 200; ++k) {
+    stepper.step();
+    tally.add(scene.model, stepper);
+  }
+  const std::vector<ActuatorSummary> actuators = tally.summary(scene.model);
+  EXPECT_GT(actuators[1].saturated_steps, 150);
+  const std::string note = saturationNote(actuators, 200);
+  EXPECT_NE(note.find("/j2 " + std::to_string(actuators[1].saturated_steps) +
+                      " of 200 steps (|tau| <= 1.8)"),
+            std::string::npos)
+      << note;
+  EXPECT_EQ(saturationNote({}, 200), "");
 }
 
 INSTANTIATE_TEST_SUITE_P(BothSchemes, Actuation, ::testing::Values("moreau-jean", "catching-up"),

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "contact/contact_model.hpp"
+#include "contact/convex_hull.hpp"
 #include "contact/mesh_io.hpp"
 #include "framework/error.hpp"
 #include "framework/urdf_import.hpp"
@@ -99,6 +100,27 @@ TEST(MeshIo, ColladaNodeTransformsMirrorOrAreRefused) {
   }
 }
 
+// COLLADA is read in ROS's frame: <unit> scales the file, <up_axis> Z_UP does not turn it. The
+// KR5 package's visual (millimetres, Z_UP) and its collision STL (millimetres, which the URDF
+// scales by 1e-3) hold one stand-in box; turned a quarter about x, their extents would differ.
+TEST(MeshIo, ColladaKeepsItsZUpAndHonoursItsUnit) {
+  const std::string folder = "packages/src/kuka_kr5_support/meshes/kr5_arc/";
+  const auto visual = loadTriangleMesh(dataPath(folder + "visual/link_3.dae"));
+  const auto collision =
+      loadTriangleMesh(dataPath(folder + "collision/link_3.stl"), Vector3::Constant(1e-3));
+  ASSERT_EQ(visual->vertices.size(), collision->vertices.size());
+  auto extent = [](const TriangleMesh& mesh) {
+    Eigen::AlignedBox3d box;
+    for (const Vector3& p : mesh.vertices) box.extend(p);
+    return box;
+  };
+  const Eigen::AlignedBox3d a = extent(*visual), b = extent(*collision);
+  // the STL's float32 millimetres against the COLLADA's 9 digits
+  EXPECT_LT((a.min() - b.min()).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LT((a.max() - b.max()).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT(b.max().x(), 0.6);  // along the link, toward joint a4 at (0.62, -0.12, 0)
+}
+
 TEST(MeshIo, ReadsAsciiStlAndMergesVertices) {
   const auto cube = loadTriangleMesh(dataPath("meshes/cube.stl"), Vector3(2.0, 2.0, 2.0));
   EXPECT_EQ(cube->triangles.size(), 12u);
@@ -158,6 +180,72 @@ TEST(MeshIo, UrdfCollisionMeshLoaded) {
       EXPECT_NEAR(boundingRadius(g.shape), std::sqrt(0.3 * 0.3 + 2 * 0.02 * 0.02), 1e-12);
     }
   EXPECT_EQ(meshes, 1);
+}
+
+// Qhull's hull is closed, outward and convex; it takes a mesh that is not manifold (CAD
+// exports often are not) and refuses vertices that span no volume, naming the mesh.
+TEST(ConvexHull, ClosedOutwardAndConvexFromAnyVertexSet) {
+  for (const char* file :
+       {"meshes/dented_cube.stl", "meshes/non_manifold.stl", "meshes/bowl.stl"}) {
+    SCOPED_TRACE(file);
+    const auto mesh = loadTriangleMesh(dataPath(file));
+    const auto hull = convexHull(*mesh, file);
+    EXPECT_EQ(buildError(Shape::convexMesh(hull)), "");
+    // every input vertex inside or on the hull
+    const Shape solid = Shape::triangleMesh(hull);
+    for (const Vector3& p : mesh->vertices)
+      for (std::size_t t = 0; t < hull->triangles.size(); ++t)
+        ASSERT_LE(solid.mesh->normals[t].dot(p - hull->vertices[hull->triangles[t][0]]), 1e-12);
+  }
+  const auto dented = convexHull(*loadTriangleMesh(dataPath("meshes/dented_cube.stl")), "dented");
+  EXPECT_EQ(dented->vertices.size(), 8u);  // the dent's vertex is inside
+  auto flat = std::make_shared<TriangleMesh>();
+  flat->vertices = {Vector3(0, 0, 0), Vector3(1, 0, 0), Vector3(1, 1, 0), Vector3(0, 1, 0)};
+  for (const auto& [mesh, cause] : {std::pair{flat, "span no volume"},
+                                    std::pair{std::make_shared<TriangleMesh>(), "0 vertices"}}) {
+    try {
+      convexHull(*mesh, "link.stl");
+      ADD_FAILURE() << "no error for " << cause;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("link.stl: ", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find(cause), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A URDF link's mesh is its hull unless collision_meshes asks for its triangles, which must
+// then be manifold.
+TEST(MeshIo, UrdfCollisionMeshIsItsHullOrItsTriangles) {
+  const std::string mesh = dataPath("meshes/non_manifold.stl");
+  const std::string urdf =
+      "<robot name='r'><link name='base'/><link name='arm'><inertial><mass value='1'/>"
+      "<inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/></inertial><collision>"
+      "<geometry><mesh filename='" +
+      mesh +
+      "'/></geometry></collision></link>"
+      "<joint name='j' type='continuous'><parent link='base'/><child link='arm'/>"
+      "<axis xyz='0 0 1'/></joint></robot>";
+  for (const CollisionMeshes kind : {CollisionMeshes::ConvexHull, CollisionMeshes::Triangles}) {
+    UrdfOptions options;
+    options.collision_meshes = kind;
+    ModelBuilder builder;
+    addUrdfString(builder, urdf, "r.urdf", options);
+    const Model model = builder.build();
+    ContactModelBuilder cb(model);
+    cb.addModelCollisions();
+    if (kind == CollisionMeshes::ConvexHull) {
+      const ContactModel cmodel = cb.build();
+      ASSERT_EQ(cmodel.geometries.size(), 1u);
+      EXPECT_EQ(cmodel.geometries[0].shape.type, ShapeType::TriangleMesh);
+    } else {
+      try {
+        cb.build();
+        ADD_FAILURE() << "a non-manifold mesh was taken as triangles";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("non-manifold mesh"), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 TEST(Materials, LawsAreValidated) {
