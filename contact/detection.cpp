@@ -82,13 +82,16 @@ bool ownClosedForm(const Shape& a, const Shape& b) {
   auto held = [](ShapeType t) {
     return t == ShapeType::Sphere || t == ShapeType::Box || t == ShapeType::Capsule;
   };
+  auto surface = [](ShapeType t) {
+    return t == ShapeType::TriangleMesh || t == ShapeType::ConvexMesh;
+  };
   auto box_surface = [](const Shape& box, const Shape& other) {
     return box.type == ShapeType::Box && box.mesh &&
            (other.type == ShapeType::Box || other.type == ShapeType::Capsule);
   };
-  return (a.type == ShapeType::TriangleMesh && held(b.type)) ||
-         (b.type == ShapeType::TriangleMesh && held(a.type)) || box_surface(a, b) ||
-         box_surface(b, a) || (a.type == ShapeType::Capsule && b.type == ShapeType::Capsule);
+  return (surface(a.type) && held(b.type)) || (surface(b.type) && held(a.type)) ||
+         box_surface(a, b) || box_surface(b, a) ||
+         (a.type == ShapeType::Capsule && b.type == ShapeType::Capsule);
 }
 
 // The closed forms take the pair in one order (container first, ball second); `flipped`
@@ -98,9 +101,11 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
   const std::size_t first = out.size();
   const bool flipped =
       isUnbounded(sb) ||
-      (!isUnbounded(sa) && ((isBall(sa.type) && !isBall(sb.type)) ||
-                            (sb.type == ShapeType::TriangleMesh && sa.type != sb.type) ||
-                            (sb.type == ShapeType::Box && sa.type == ShapeType::Capsule)));
+      (!isUnbounded(sa) &&
+       ((isBall(sa.type) && !isBall(sb.type)) ||
+        ((sb.type == ShapeType::TriangleMesh || sb.type == ShapeType::ConvexMesh) &&
+         sa.type != sb.type) ||
+        (sb.type == ShapeType::Box && sa.type == ShapeType::Capsule)));
   const Shape& s1 = flipped ? sb : sa;
   const Shape& s2 = flipped ? sa : sb;
   const Pose& p1 = flipped ? pb : pa;
@@ -136,6 +141,7 @@ void analyticPair(const Shape& sa, const Pose& pa, const Shape& sb, const Pose& 
       else if (s1.mesh)  // its surface, as a triangle mesh
         meshShape(*s1.mesh);
       break;
+    case ShapeType::ConvexMesh:    // its surface: a closed triangle mesh
     case ShapeType::TriangleMesh:  // FCL's pairs with these are not used: see ownClosedForm
       if (s2.type == ShapeType::Sphere)
         meshBall(p1, *s1.mesh, p2.translation, s2.radius, margin,

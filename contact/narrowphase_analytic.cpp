@@ -14,6 +14,7 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
       return a == T::Sphere || a == T::Box;
     case T::Capsule:  // box-capsule: the box's surface mesh
       return a == T::Sphere || a == T::Box || a == T::Capsule;
+    case T::ConvexMesh:  // as its surface, a closed triangle mesh
     case T::TriangleMesh:
       return a == T::Sphere || a == T::Box || a == T::Capsule;  // narrowphase_mesh.hpp
     case T::HalfSpace:

@@ -68,10 +68,10 @@ Shape Shape::capsule(double radius, double length) {
   return s;
 }
 Shape Shape::convexMesh(std::shared_ptr<const TriangleMesh> mesh) {
-  Shape s;
+  // the same surface and topology as a triangle mesh: the closed forms against balls, boxes
+  // and capsules serve both
+  Shape s = triangleMesh(std::move(mesh));
   s.type = ShapeType::ConvexMesh;
-  if (mesh) s.vertices = mesh->vertices;
-  s.mesh = std::move(mesh);
   return s;
 }
 void buildMeshTopology(TriangleMesh& mesh) {
