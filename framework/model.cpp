@@ -180,6 +180,12 @@ void ModelBuilder::addCollision(const CollisionGeometry& geometry) {
   collisions_.push_back(geometry);
 }
 
+void ModelBuilder::addVisual(const CollisionGeometry& geometry) {
+  if (geometry.body < 0 || geometry.body >= bodyCount())
+    throw InputError(source_ + ": visual geometry '" + geometry.name + "' on unknown body");
+  visuals_.push_back(geometry);
+}
+
 void ModelBuilder::addDrivenBody(const DrivenBody& body) {
   if (!body.pose || !body.twist)
     throw InputError(source_ + ": driven body '" + body.name + "' needs a pose and a twist");
@@ -376,6 +382,10 @@ Model ModelBuilder::build() const {
   for (CollisionGeometry g : collisions_) {
     g.body = new_index[g.body];
     model.collisions.push_back(g);
+  }
+  for (CollisionGeometry g : visuals_) {
+    g.body = new_index[g.body];
+    model.visuals.push_back(g);
   }
   model.driven_bodies = driven_;
   model.notes = notes_;

@@ -152,6 +152,8 @@ struct Model {
   std::vector<Component> components;
   std::vector<JointLimit> limits;
   std::vector<CollisionGeometry> collisions;
+  // a URDF's <visual> elements: drawn by the VTK snapshots and the viewer, never in contact
+  std::vector<CollisionGeometry> visuals;
   std::vector<DrivenBody> driven_bodies;
   std::vector<EquationSystem> systems;  // their components follow the body trees'
   std::vector<ConstraintFunction> constraints;
@@ -185,6 +187,7 @@ class ModelBuilder {
   // An infinite bound is no bound; lower == upper locks the joint at that value.
   void addJointLimits(int body, double lower, double upper);
   void addCollision(const CollisionGeometry& geometry);
+  void addVisual(const CollisionGeometry& geometry);
   void addDrivenBody(const DrivenBody& body);
   void setGravity(const Vector3& gravity);
   // A system by its equations (its coordinates and velocities come after every body's), and a
@@ -206,7 +209,7 @@ class ModelBuilder {
   std::string source_;
   std::vector<Body> bodies_;
   std::vector<JointLimit> limits_;  // body indices of this builder
-  std::vector<CollisionGeometry> collisions_;
+  std::vector<CollisionGeometry> collisions_, visuals_;
   std::vector<DrivenBody> driven_;
   std::vector<EquationSystem> systems_;
   std::vector<ConstraintFunction> constraints_;

@@ -209,50 +209,71 @@ class Importer {
       g.name = collision->name.empty() ? link.name : collision->name;
       const std::string where = "link '" + link.name + "' <collision>";
       g.placement = placement(collision->origin, where + " <origin>");
-      switch (collision->geometry->type) {
-        case urdf::Geometry::SPHERE:
-          g.type = GeometryType::Sphere;
-          g.radius = static_cast<const urdf::Sphere&>(*collision->geometry).radius;
-          if (!(g.radius > 0)) fail(where, "sphere radius must be > 0, got " + number(g.radius));
-          break;
-        case urdf::Geometry::BOX: {
-          const auto& d = static_cast<const urdf::Box&>(*collision->geometry).dim;
-          g.type = GeometryType::Box;
-          g.box_size = Vector3(d.x, d.y, d.z);
-          if (!(g.box_size.minCoeff() > 0)) fail(where, "box sizes must be > 0");
-          break;
-        }
-        case urdf::Geometry::CYLINDER: {
-          const auto& c = static_cast<const urdf::Cylinder&>(*collision->geometry);
-          g.type = GeometryType::Cylinder;
-          g.radius = c.radius;
-          g.length = c.length;
-          if (!(g.radius > 0 && g.length > 0))
-            fail(where, "cylinder radius and length must be > 0");
-          break;
-        }
-        case urdf::Geometry::MESH: {
-          const auto& m = static_cast<const urdf::Mesh&>(*collision->geometry);
-          g.type = GeometryType::Mesh;
-          g.mesh_scale = Vector3(m.scale.x, m.scale.y, m.scale.z);
-          if (!(g.mesh_scale.minCoeff() > 0.0) || !g.mesh_scale.allFinite())
-            fail(where, "mesh scale must be > 0 and finite in each axis, got \"" +
-                            number(m.scale.x) + " " + number(m.scale.y) + " " + number(m.scale.z) +
-                            "\"");
-          g.mesh_file = resolveMesh(m.filename, g.missing_mesh);
-          g.mesh_hull = options_.collision_meshes == CollisionMeshes::ConvexHull;
-          if (!g.missing_mesh.empty() && options_.missing_meshes != MissingMeshes::Refuse) {
-            const bool boxed =
-                options_.missing_meshes == MissingMeshes::InertiaBox && inertiaBox(link, g);
-            builder_.addNote(
-                source_ + ": link '" + link.name + "': mesh " + g.missing_mesh +
-                (boxed ? "; its inertia box collides instead" : "; the link collides without it"));
-            if (!boxed) continue;
-          }
-          break;
+      readGeometry(*collision->geometry, where, g);
+      if (g.type == GeometryType::Mesh) {
+        g.mesh_hull = options_.collision_meshes == CollisionMeshes::ConvexHull;
+        if (!g.missing_mesh.empty() && options_.missing_meshes != MissingMeshes::Refuse) {
+          const bool boxed =
+              options_.missing_meshes == MissingMeshes::InertiaBox && inertiaBox(link, g);
+          builder_.addNote(
+              source_ + ": link '" + link.name + "': mesh " + g.missing_mesh +
+              (boxed ? "; its inertia box collides instead" : "; the link collides without it"));
+          if (!boxed) continue;
         }
       }
       builder_.addCollision(g);
+    }
+    for (const auto& visual : link.visual_array) {
+      if (!visual || !visual->geometry) continue;
+      CollisionGeometry g;
+      g.body = body;
+      g.name = visual->name.empty() ? link.name : visual->name;
+      const std::string where = "link '" + link.name + "' <visual>";
+      g.placement = placement(visual->origin, where + " <origin>");
+      readGeometry(*visual->geometry, where, g);
+      // a visual never changes a run: one that cannot be found is drawn by the collisions
+      if (!g.missing_mesh.empty()) {
+        builder_.addNote(source_ + ": link '" + link.name + "': visual mesh " + g.missing_mesh +
+                         "; drawn by its collision shapes");
+        continue;
+      }
+      builder_.addVisual(g);
+    }
+  }
+
+  void readGeometry(const urdf::Geometry& geometry, const std::string& where,
+                    CollisionGeometry& g) {
+    switch (geometry.type) {
+      case urdf::Geometry::SPHERE:
+        g.type = GeometryType::Sphere;
+        g.radius = static_cast<const urdf::Sphere&>(geometry).radius;
+        if (!(g.radius > 0)) fail(where, "sphere radius must be > 0, got " + number(g.radius));
+        break;
+      case urdf::Geometry::BOX: {
+        const auto& d = static_cast<const urdf::Box&>(geometry).dim;
+        g.type = GeometryType::Box;
+        g.box_size = Vector3(d.x, d.y, d.z);
+        if (!(g.box_size.minCoeff() > 0)) fail(where, "box sizes must be > 0");
+        break;
+      }
+      case urdf::Geometry::CYLINDER: {
+        const auto& c = static_cast<const urdf::Cylinder&>(geometry);
+        g.type = GeometryType::Cylinder;
+        g.radius = c.radius;
+        g.length = c.length;
+        if (!(g.radius > 0 && g.length > 0)) fail(where, "cylinder radius and length must be > 0");
+        break;
+      }
+      case urdf::Geometry::MESH: {
+        const auto& m = static_cast<const urdf::Mesh&>(geometry);
+        g.type = GeometryType::Mesh;
+        g.mesh_scale = Vector3(m.scale.x, m.scale.y, m.scale.z);
+        if (!(g.mesh_scale.minCoeff() > 0.0) || !g.mesh_scale.allFinite())
+          fail(where, "mesh scale must be > 0 and finite in each axis, got \"" + number(m.scale.x) +
+                          " " + number(m.scale.y) + " " + number(m.scale.z) + "\"");
+        g.mesh_file = resolveMesh(m.filename, g.missing_mesh);
+        break;
+      }
     }
   }
 

@@ -1,5 +1,7 @@
 #include "apps/sweep/viewer.hpp"
 
+#include "apps/sweep/vtk_writer.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "apps/sweep/run.hpp"
+#include "apps/sweep/vtk_writer.hpp"
 #include "contact/shape.hpp"
 #include "framework/error.hpp"
 #include "framework/memory.hpp"
@@ -61,7 +64,7 @@ struct Snapshot {
   int dimension = 0;            // 0: not stated
   std::vector<double> gravity;  // empty: not stated
   std::vector<double> points, radius, velocity, force;
-  std::vector<int> kind, shape;
+  std::vector<int> kind, shape, role;  // role: kRoleCollision when the snapshot has none
   std::vector<int> verts, verts_offsets, lines, lines_offsets, polys, polys_offsets;
 };
 
@@ -99,6 +102,13 @@ class SnapshotReader {
       array("shape", s.shape, n, piece);
     else
       s.shape.assign(n, -1);
+    if (text_.find("Name=\"role\"", piece) != std::string::npos) {
+      array("role", s.role, n, piece);
+      for (int r : s.role)
+        if (r < kRoleCollision || r > kRoleHidden) fail("role", "must be 0, 1 or 2");
+    } else {
+      s.role.assign(n, kRoleCollision);
+    }
     cells("Verts", s.verts, s.verts_offsets, n, count(piece_tag, "NumberOfVerts"));
     cells("Lines", s.lines, s.lines_offsets, n, count(piece_tag, "NumberOfLines"));
     cells("Polys", s.polys, s.polys_offsets, n, count(piece_tag, "NumberOfPolys"));
@@ -288,13 +298,17 @@ Frame frameOf(const Snapshot& s, std::vector<double>& speeds, std::vector<double
       forces.push_back(force);
     }
   };
+  // a link's collision shapes are not drawn where its visuals are
+  auto hidden = [&](int k) { return s.role[k] == kRoleHidden; };
   for (int k : s.verts) {
+    if (hidden(k)) continue;
     point(k, f.balls);
     f.balls.push_back(static_cast<float>(s.radius[k]));
     fields(k, f.balls);
   }
   for (std::size_t l = 0; l < s.lines_offsets.size(); ++l) {
     const int a = s.lines[2 * l], b = s.lines[2 * l + 1];
+    if (hidden(a)) continue;
     point(a, f.lines);
     point(b, f.lines);
     f.lines.push_back(static_cast<float>(s.radius[a]));
@@ -305,6 +319,10 @@ Frame frameOf(const Snapshot& s, std::vector<double>& speeds, std::vector<double
   for (int end : s.polys_offsets) {
     if (s.shape[s.polys[begin]] == static_cast<int>(ShapeType::HalfSpace) && end - begin == 4) {
       for (int i = begin; i < end; ++i) point(s.polys[i], f.planes);
+      begin = end;
+      continue;
+    }
+    if (hidden(s.polys[begin])) {
       begin = end;
       continue;
     }

@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "apps/sweep/run.hpp"
+#include "contact/mesh_io.hpp"
+#include "framework/error.hpp"
 #include "framework/kinematics.hpp"
 
 namespace sweep {
@@ -52,6 +54,37 @@ VtkSeries::VtkSeries(const Scene& scene, const std::string& out_dir)
   for (const Geometry& geometry : scene.cmodel.geometries)
     if (isPlanarShape(geometry.shape.type)) dimension_ = 2;
   std::filesystem::create_directories(dir_ + "/vtk");
+  // a body with visuals is drawn by them; a visual mesh that cannot be read leaves its body
+  // drawn by its collision shapes (the import has already noted a missing file)
+  drawn_by_visuals_.assign(scene.model.bodies.size(), 0);
+  for (const CollisionGeometry& visual : scene.model.visuals) {
+    VisualPart part{visual.body, visual.placement, Shape{}};
+    switch (visual.type) {
+      case GeometryType::Sphere:
+        part.shape = Shape::sphere(visual.radius);
+        break;
+      case GeometryType::Box:
+        part.shape = Shape::box(visual.box_size);
+        break;
+      case GeometryType::Cylinder:
+        part.shape = Shape::cylinder(visual.radius, visual.length);
+        break;
+      case GeometryType::Capsule:
+        part.shape = Shape::capsule(visual.radius, visual.length);
+        break;
+      case GeometryType::Mesh:
+        try {
+          // drawn only: no topology, no checks of a surface that meets nothing
+          part.shape.type = ShapeType::TriangleMesh;
+          part.shape.mesh = loadTriangleMesh(visual.mesh_file, visual.mesh_scale);
+        } catch (const InputError&) {
+          continue;
+        }
+        break;
+    }
+    drawn_by_visuals_[visual.body] = 1;
+    visuals_.push_back(std::move(part));
+  }
 }
 
 void VtkSeries::write(const TimeStepper& stepper) {
@@ -76,26 +109,16 @@ void VtkSeries::write(const TimeStepper& stepper) {
   }
 
   std::vector<Vector3> points;
-  std::vector<int> body_id, kind, shape_type;
+  std::vector<int> body_id, kind, shape_type, role;
   std::vector<double> radius;
   std::vector<Vector3> velocity, contact_force;
   std::vector<Cell> cells;
   std::vector<int> unbounded;
-  for (int g = 0; g < cmodel.size(); ++g) {
-    const Geometry& geometry = cmodel.geometries[g];
-    const Shape& shape = geometry.shape;
-    if (isUnbounded(shape)) {
-      unbounded.push_back(g);
-      continue;
-    }
-    if (geometry.body.kind == BodyRef::Kind::Driven &&
-        !model.driven_bodies[geometry.body.index].presentAt(t))
-      continue;
-    const Pose& pose = cdata_.geometry_pose[g];
-    const bool dynamic = geometry.body.kind == BodyRef::Kind::Dynamic;
-    const int body = dynamic ? geometry.body.index : -1;
+  // one shape's points and cells; `part`: kRoleCollision, kRoleVisual or kRoleHidden
+  auto emit = [&](const Shape& shape, const Pose& pose, BodyRef::Kind body_kind, int body,
+                  int part) {
     Vector3 v = Vector3::Zero(), f = Vector3::Zero();
-    if (dynamic) {
+    if (body >= 0) {
       const Pose& bp = data_.world_pose[body];
       v = bp.rotation * Vector3(data_.velocity[body].tail<3>());
       f = force[body];
@@ -103,8 +126,9 @@ void VtkSeries::write(const TimeStepper& stepper) {
     auto add = [&](const Vector3& x, double r) {
       points.push_back(x);
       body_id.push_back(body);
-      kind.push_back(static_cast<int>(geometry.body.kind));
+      kind.push_back(static_cast<int>(body_kind));
       shape_type.push_back(static_cast<int>(shape.type));
+      role.push_back(part);
       radius.push_back(r);
       velocity.push_back(v);
       contact_force.push_back(f);
@@ -126,7 +150,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
         for (int k : face) quad.points.push_back(corner[k]);
         cells.push_back(quad);
       }
-      continue;
+      return;
     }
     if (shape.type == ShapeType::Capsule || shape.type == ShapeType::Cylinder) {
       // the axis as a line with the radius: a roller drawn by ParaView's tube filter
@@ -148,7 +172,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
         for (int k : triangle) face.points.push_back(first + k);
         cells.push_back(face);
       }
-      continue;
+      return;
     } else if (shape.type == ShapeType::Polygon) {
       cell.kind = Cell::Kind::Polygon;
       for (const Vector3& p : shape.vertices) cell.points.push_back(add(pose.apply(p), 0.0));
@@ -157,7 +181,24 @@ void VtkSeries::write(const TimeStepper& stepper) {
       cell.points = {add(pose.translation, boundingRadius(shape))};
     }
     cells.push_back(cell);
+  };
+  for (int g = 0; g < cmodel.size(); ++g) {
+    const Geometry& geometry = cmodel.geometries[g];
+    if (isUnbounded(geometry.shape)) {
+      unbounded.push_back(g);
+      continue;
+    }
+    if (geometry.body.kind == BodyRef::Kind::Driven &&
+        !model.driven_bodies[geometry.body.index].presentAt(t))
+      continue;
+    const bool dynamic = geometry.body.kind == BodyRef::Kind::Dynamic;
+    const int body = dynamic ? geometry.body.index : -1;
+    emit(geometry.shape, cdata_.geometry_pose[g], geometry.body.kind, body,
+         dynamic && drawn_by_visuals_[body] ? kRoleHidden : kRoleCollision);
   }
+  for (const VisualPart& part : visuals_)
+    emit(part.shape, data_.world_pose[part.body] * part.placement, BodyRef::Kind::Dynamic,
+         part.body, kRoleVisual);
 
   // planes as a square and half-planes as a segment, centred under the other shapes and 1.2
   // times their extent wide (1 m with nothing else to measure): ParaView and the viewer draw
@@ -183,6 +224,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
       body_id.push_back(-1);
       kind.push_back(static_cast<int>(geometry.body.kind));
       shape_type.push_back(static_cast<int>(geometry.shape.type));
+      role.push_back(kRoleCollision);
       radius.push_back(0.0);
       velocity.push_back(Vector3::Zero());
       contact_force.push_back(Vector3::Zero());
@@ -221,6 +263,7 @@ void VtkSeries::write(const TimeStepper& stepper) {
   scalarArray(x, "Int32", "body_id", body_id);
   scalarArray(x, "Int32", "kind", kind);
   scalarArray(x, "Int32", "shape", shape_type);
+  scalarArray(x, "Int32", "role", role);
   scalarArray(x, "Float64", "radius", radius);
   vectorArray(x, "velocity", velocity);
   vectorArray(x, "contact_force", contact_force);

@@ -1,11 +1,11 @@
 #pragma once
 // VTK snapshots for ParaView and `sweep view`: one PolyData file (.vtp) per snapshot, the
-// bodies' shapes as vertices (disks, spheres), lines (segments, the axes of capsules and
-// cylinders, half-planes), polygons (2D polygons, the six faces of boxes, the triangles of
-// meshes, a square of each plane under the other shapes), with body
-// id, kind, shape type (ShapeType), radius, velocity and contact force as point data and the
-// scene's dimension and gravity as field data; and a .pvd collection that lists the snapshots with
-// their times, rewritten after each one so it is always valid.
+// bodies' shapes, and URDF links' visuals, as vertices (disks, spheres), lines (segments, the
+// axes of capsules and cylinders, half-planes), polygons (2D polygons, the six faces of boxes,
+// the triangles of meshes, a square of each plane under the other shapes), with body id, kind,
+// shape type (ShapeType), role, radius, velocity and contact force as point data and the
+// scene's dimension and gravity as field data; and a .pvd collection that lists the snapshots
+// with their times, rewritten after each one so it is always valid.
 // Beside each snapshot, the last step's contact network (vtk/contacts_NNNNNN.vtp, listed in
 // contacts.pvd), as LMGC90 and LIGGGHTS write theirs: every contact that carried an impulse
 // or overlaps, as three points with its values (its point, a vertex; the two bodies' centres, a
@@ -18,6 +18,10 @@
 #include "models/granular.hpp"
 
 namespace sweep {
+
+// A point's "role": a collision shape, a URDF link's visual (drawn, never in contact), or a
+// collision shape of a link that its visuals draw (ParaView may show it; the viewer does not).
+inline constexpr int kRoleCollision = 0, kRoleVisual = 1, kRoleHidden = 2;
 
 class VtkSeries {
  public:
@@ -33,6 +37,13 @@ class VtkSeries {
   ContactData cdata_;
   std::vector<std::pair<double, std::string>> entries_;  // time, file name
   std::vector<std::pair<double, std::string>> contact_entries_;
+  struct VisualPart {
+    int body;
+    Pose placement;  // in the body frame
+    Shape shape;
+  };
+  std::vector<VisualPart> visuals_;
+  std::vector<char> drawn_by_visuals_;  // per body
 
   void writeContacts(const TimeStepper& stepper, const std::string& name);
 };

@@ -2,11 +2,17 @@
 // fits when it is.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 
+#include "apps/sweep/run.hpp"
+#include "apps/sweep/scene_file.hpp"
 #include "apps/sweep/viewer.hpp"
+#include "apps/sweep/vtk_writer.hpp"
 #include "framework/error.hpp"
+#include "integrators/time_stepper.hpp"
 
 namespace sweep {
 namespace {
@@ -51,6 +57,42 @@ TEST(ViewerPage, ThinsToTheSmallestEveryThatFitsOrRefusesAGivenOne) {
   EXPECT_EQ(quiet.str(), "");
   // one snapshot beyond the page: nothing fits
   EXPECT_THROW(fittingEvery(ViewerPage{3, 3e8, 1.2e9, 1e12}, 0, nullptr), InputError);
+}
+
+// A robot's links are drawn by their visuals: the page takes the UR10's seven visual boxes
+// (12 triangles each) and its ee_link box (6 faces), not the collision hulls under them, and
+// refuses a role it does not know, naming the field.
+TEST(ViewerPage, ALinkIsDrawnByItsVisualsNotItsCollisionShapes) {
+  const std::string scene_path =
+      std::string(SWEEP_SOURCE_DIR) + "/tests/data/packages/scenes/ur10_on_floor.yaml";
+  const SceneFile file = loadSceneFile(scene_path);
+  const Scene scene = buildSceneFile(file);
+  ASSERT_EQ(scene.model.visuals.size(), 7u);
+  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  stepper.step();
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / "sweep_viewer_visuals").string();
+  std::filesystem::remove_all(dir);
+  {
+    VtkSeries series(scene, dir);
+    series.write(stepper);
+  }
+  std::ifstream in(dir + "/vtk/snapshot_000000.vtp");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(readViewerSnapshot("snapshot_000000.vtp", text.str()), 7 * 12 + 6);
+  std::string bad = text.str();
+  const std::size_t role = bad.find("Name=\"role\" format=\"ascii\">\n");
+  ASSERT_NE(role, std::string::npos);
+  bad[bad.find('>', role) + 2] = '7';
+  try {
+    readViewerSnapshot("snapshot_000000.vtp", bad);
+    ADD_FAILURE() << "role 7 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("role: must be 0, 1 or 2"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -132,6 +132,22 @@ class Snapshots(unittest.TestCase):
             self.assertAlmostEqual(points[3 * c][2], 0.0, delta=1e-6)  # the corners, on the floor
             self.assertAlmostEqual(points[3 * c + 2][2], 0.025, delta=1e-6)  # the box's centre
 
+    def test_a_robot_is_drawn_by_its_visual_meshes(self):
+        # the UR10 of tests/data/packages: its links' visuals (COLLADA, Z up) are the same boxes
+        # as their collision meshes (STL), so role 1 (visual) and role 2 (the collision shapes
+        # the visuals draw) hold the same points; the ee_link box and the floor have no visual
+        out, snapshots = self.run_scene("tests/data/packages/scenes/ur10_on_floor.yaml",
+                                        "--t-end", "0.01", "--set", "output.vtk_interval=0.005")
+        _, last = snapshots[-1]
+        role = vtk_to_numpy(last.GetPointData().GetArray("role"))
+        points = vtk_to_numpy(last.GetPoints().GetData())
+        visual = sorted(tuple(round(x, 9) for x in p) for p, r in zip(points, role) if r == 1)
+        hidden = sorted(tuple(round(x, 9) for x in p) for p, r in zip(points, role) if r == 2)
+        self.assertEqual(len(visual), 7 * 8)  # seven links, a box's eight corners each
+        self.assertEqual(visual, hidden)
+        self.assertEqual(int((role == 0).sum()), 8 + 4)  # the ee_link box, the floor's square
+        self.assertEqual(last.GetNumberOfPolys(), 2 * 7 * 12 + 6 + 1)
+
     def test_contact_network_of_a_periodic_powder_bed_stays_local(self):
         # contacts across the periodic bound are drawn to the image they meet, not across the bed
         out, _ = self.run_scene("examples/powder_bed/powder_bed_reduced.yaml", "--t-end", "0.01",
