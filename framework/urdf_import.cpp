@@ -229,9 +229,15 @@ class Importer {
       g.body = body;
       g.name = visual->name.empty() ? link.name : visual->name;
       const std::string where = "link '" + link.name + "' <visual>";
-      g.placement = placement(visual->origin, where + " <origin>");
-      readGeometry(*visual->geometry, where, g);
-      // a visual never changes a run: one that cannot be found is drawn by the collisions
+      // a visual never stops a run: one that is malformed or cannot be found is noted, and
+      // the link is drawn by its collision shapes
+      try {
+        g.placement = placement(visual->origin, where + " <origin>");
+        readGeometry(*visual->geometry, where, g);
+      } catch (const InputError& e) {
+        builder_.addNote(std::string(e.what()) + "; not drawn");
+        continue;
+      }
       if (!g.missing_mesh.empty()) {
         builder_.addNote(source_ + ": link '" + link.name + "': visual mesh " + g.missing_mesh +
                          "; drawn by its collision shapes");

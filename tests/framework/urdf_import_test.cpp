@@ -255,6 +255,32 @@ TEST(UrdfImport, MissingMeshesAreRefusedLeftOutOrBoxed) {
 // The URDF fuzzer's find: lead bytes that promise more bytes than the text holds made TinyXML
 // read past the end of the buffer (an AddressSanitizer heap-buffer-overflow). They are refused
 // before any parser sees them; valid multi-byte names still load.
+// <visual> elements are read for drawing only: a good one is kept on its body, one that is
+// malformed or whose mesh is missing is noted and left out; the robot loads either way.
+TEST(UrdfImport, VisualsAreKeptOrNotedNeverRefused) {
+  const std::string urdf =
+      "<robot name='r'><link name='base'/><link name='arm'><inertial><mass value='1'/>"
+      "<inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/></inertial>"
+      "<visual><origin xyz='0 0 0.5'/><geometry><box size='0.1 0.2 0.3'/></geometry></visual>"
+      "<visual><geometry><sphere radius='-1'/></geometry></visual>"
+      "<visual><geometry><mesh filename='no_such_visual.dae'/></geometry></visual>"
+      "</link><joint name='j' type='continuous'><parent link='base'/><child link='arm'/>"
+      "<axis xyz='0 0 1'/></joint></robot>";
+  ModelBuilder b;
+  addUrdfString(b, urdf, "r.urdf");
+  const Model model = b.build();
+  ASSERT_EQ(model.visuals.size(), 1u);
+  EXPECT_EQ(model.visuals[0].type, GeometryType::Box);
+  EXPECT_EQ(model.visuals[0].body, model.bodyIndex("arm"));
+  EXPECT_DOUBLE_EQ(model.visuals[0].placement.translation.z(), 0.5);
+  ASSERT_EQ(model.notes.size(), 2u);
+  EXPECT_NE(model.notes[0].find("link 'arm' <visual>: sphere radius must be > 0"),
+            std::string::npos)
+      << model.notes[0];
+  EXPECT_NE(model.notes[1].find("visual mesh"), std::string::npos) << model.notes[1];
+  EXPECT_NE(model.notes[1].find("no_such_visual.dae"), std::string::npos) << model.notes[1];
+}
+
 TEST(UrdfImport, TruncatedUtf8IsRefusedBeforeParsing) {
   for (const std::string& tail :
        {std::string("\xdc"), std::string(40, '\xff') + std::string(30, '\xdc'),
