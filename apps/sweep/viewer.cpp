@@ -1,7 +1,5 @@
 #include "apps/sweep/viewer.hpp"
 
-#include "apps/sweep/vtk_writer.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
