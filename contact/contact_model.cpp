@@ -234,18 +234,35 @@ ContactModel ContactModelBuilder::build() const {
   cm.dimension = planar > 0 ? 2 : 3;
 
   // the analytic path serves the scene when every pair of shape types that can meet has a
-  // closed form; decided by types, once
-  std::set<ShapeType> moving;
-  std::map<ShapeType, int> all;
+  // closed form; decided by types and the components that own them, once. Without
+  // self-collision two shapes of one component never meet: a robot's mesh links among
+  // themselves do not send the scene to FCL.
+  struct Owners {
+    int count = 0, first = 0;
+    bool several = false;  // more than one component (-1: the world or a driven body)
+    void add(int component) {
+      if (count++ == 0)
+        first = component;
+      else if (component != first)
+        several = true;
+    }
+  };
+  std::map<ShapeType, Owners> moving, all;
   for (const Geometry& g : geometries_) {
-    ++all[g.shape.type];
-    if (moves(g)) moving.insert(g.shape.type);
+    const int component =
+        g.body.kind == BodyRef::Kind::Dynamic ? model_.bodies[g.body.index].component : -1;
+    all[g.shape.type].add(component);
+    if (moves(g)) moving[g.shape.type].add(component);
   }
   std::string missing;
-  for (ShapeType m : moving)
-    for (const auto& [a, count] : all)
-      if (missing.empty() && (a != m || count > 1) && !hasAnalyticNarrowphase(m, a))
+  for (const auto& [m, of_m] : moving)
+    for (const auto& [a, of_a] : all) {
+      const bool meet = settings_.self_collision
+                            ? a != m || of_a.count > 1
+                            : of_m.several || of_a.several || of_m.first != of_a.first;
+      if (missing.empty() && meet && !hasAnalyticNarrowphase(m, a))
         missing = std::string(shapeTypeName(m)) + "-" + shapeTypeName(a);
+    }
   const bool analytic_possible = missing.empty();
   switch (settings_.path) {
     case DetectionPathChoice::Automatic:

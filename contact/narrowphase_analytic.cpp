@@ -17,9 +17,9 @@ bool hasAnalyticNarrowphase(ShapeType a, ShapeType b) {
     case T::ConvexMesh:  // as its surface, a closed triangle mesh
     case T::TriangleMesh:
       return a == T::Sphere || a == T::Box || a == T::Capsule;  // narrowphase_mesh.hpp
-    case T::HalfSpace:
+    case T::HalfSpace:  // a mesh: its vertices (halfSpaceShape)
       return a == T::Sphere || a == T::Box || a == T::Capsule || a == T::Cylinder ||
-             a == T::ConvexMesh;
+             a == T::ConvexMesh || a == T::TriangleMesh;
     case T::Disk:
       return a == T::Disk;
     case T::Segment:

@@ -248,6 +248,38 @@ TEST(MeshIo, UrdfCollisionMeshIsItsHullOrItsTriangles) {
   }
 }
 
+// The detection path is chosen by the pairs that can meet: a robot's mesh links never meet
+// one another without self-collision, so a UR10 on a floor takes the analytic path; with
+// self-collision, or a second robot, mesh meets mesh and the scene takes FCL's.
+TEST(ContactModel, PairsThatCannotMeetDoNotChooseThePath) {
+  const std::string packages = dataPath("packages/src");
+  UrdfOptions options;
+  options.package_paths = {packages};
+  auto path = [&](int robots, bool self_collision) {
+    ModelBuilder builder;
+    for (int r = 0; r < robots; ++r) {
+      options.name_prefix = "r" + std::to_string(r) + "_";
+      options.base_placement.translation = Vector3(2.0 * r, 0, 0);
+      addUrdf(builder, packages + "/ur_description/urdf/ur10_robot.urdf", options);
+    }
+    const Model model = builder.build();
+    ContactModelBuilder cb(model);
+    DetectionSettings settings;
+    settings.self_collision = self_collision;
+    cb.setSettings(settings);
+    cb.addModelCollisions();
+    cb.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+    const ContactModel cmodel = cb.build();
+    return std::pair{cmodel.path, cmodel.path_reason};
+  };
+  EXPECT_EQ(path(1, false).first, DetectionPath::Analytic) << path(1, false).second;
+  for (const auto& [robots, self] : {std::pair{1, true}, std::pair{2, false}}) {
+    const auto [chosen, reason] = path(robots, self);
+    EXPECT_EQ(chosen, DetectionPath::Fcl) << robots << " robots, self-collision " << self;
+    EXPECT_NE(reason.find("triangle mesh-triangle mesh"), std::string::npos) << reason;
+  }
+}
+
 TEST(Materials, LawsAreValidated) {
   MaterialTable table;
   const int steel = table.add("steel");
