@@ -60,7 +60,8 @@ std::string describe(const ContactModel& cmodel) {
       << cmodel.margin_floor << " m, "
       << (cmodel.settings.margin_rule == MarginRule::Relative ? "relative ball margins, " : "")
       << "friction " << (cmodel.frictionless ? "off (every mu = 0)" : "on")
-      << (cmodel.rolling ? ", rolling resistance on" : "");
+      << (cmodel.rolling ? ", rolling resistance on" : "")
+      << (cmodel.adhesive() ? ", adhesion on" : "");
   if (cmodel.settings.periodic.enabled())
     out << ", periodic along "
         << "xyz"[cmodel.settings.periodic.axis] << " on [" << cmodel.settings.periodic.low << ", "
@@ -325,6 +326,18 @@ ContactModel ContactModelBuilder::build() const {
         cm.frictionless = false;
         cm.rolling = cm.rolling || materials_.law(a, b).rolling > 0.0;
       }
+  for (int a : used)
+    for (int b : used) {
+      const ContactLaw& law = materials_.law(a, b);
+      if (!law.adhesive()) continue;
+      // 4 pi gamma R* is a force; a 2D scene's forces are per unit thickness
+      if (cm.dimension == 2 && law.surface_energy > 0.0)
+        throw InputError("contact law '" + materials_.name(a) + "'-'" + materials_.name(b) +
+                         "': surface_energy " + formatValue(law.surface_energy) +
+                         " is a 3D law (pull-off force 4 pi gamma R*); a 2D scene gives "
+                         "adhesion_force, per unit thickness");
+      cm.adhesion_reach = std::max(cm.adhesion_reach, law.adhesion_range);
+    }
   if (settings_.periodic.enabled()) addPeriodicCoordinates(cm);
   return cm;
 }

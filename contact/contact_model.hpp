@@ -115,6 +115,9 @@ struct ContactModel {
   double smallest_size = 0.0;
   bool frictionless = true;  // every law that can apply has mu = 0 and mu_r = 0
   bool rolling = false;      // some law that can apply has mu_r > 0: rolling rows are built
+  // the largest adhesion_range of the adhesive laws that can apply; < 0 when none is adhesive
+  double adhesion_reach = -1.0;
+  bool adhesive() const { return adhesion_reach >= 0.0; }
   // periodic scenes: the q index of each free body's coordinate along the periodic axis and
   // that coordinate's world offset (the body's joint placement); wrapped by wrapPeriodic
   std::vector<std::pair<int, double>> periodic_coordinates;

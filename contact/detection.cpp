@@ -21,13 +21,6 @@ bool isBall(ShapeType t) {
   return t == ShapeType::Sphere || t == ShapeType::Disk;
 }
 
-// R* of the rolling-resistance bound: r_a r_b / (r_a + r_b) for two balls, the ball's radius
-// against anything else (a flat or large surface), 0 when neither is a ball (no rolling row)
-double reducedRadius(double radius_a, double radius_b) {
-  if (radius_a > 0.0 && radius_b > 0.0) return radius_a * radius_b / (radius_a + radius_b);
-  return std::max({radius_a, radius_b, 0.0});
-}
-
 // Balls of the grid path: bounded, on a moving body, and not much larger than the typical
 // ball, so that the cell size stays near one grain diameter.
 void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {

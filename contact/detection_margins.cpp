@@ -95,16 +95,20 @@ double ballClosingSpeed(const Model& model, const Data& data, const ContactModel
 
 double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
                        double t) {
-  return cmodel.settings.speed_factor * h * fastestShapeSpeed(model, data, cmodel, t) +
-         cmodel.margin_floor;
+  // an adhesive law's range reaches open candidates (IQS, POS): they must be detected
+  return std::max(cmodel.settings.speed_factor * h * fastestShapeSpeed(model, data, cmodel, t) +
+                      cmodel.margin_floor,
+                  cmodel.adhesion_reach);
 }
 
 DetectionMargins detectionMargins(const Model& model, const Data& data, const ContactModel& cmodel,
                                   double h, double t) {
   const double others = detectionMargin(model, data, cmodel, h, t);
   if (cmodel.settings.margin_rule == MarginRule::Absolute) return DetectionMargins::uniform(others);
-  const double balls = cmodel.settings.speed_factor * h * ballClosingSpeed(model, data, cmodel, t) +
-                       cmodel.margin_floor;
+  const double balls =
+      std::max(cmodel.settings.speed_factor * h * ballClosingSpeed(model, data, cmodel, t) +
+                   cmodel.margin_floor,
+               cmodel.adhesion_reach);
   return {std::min(balls, others), others};
 }
 

@@ -1,7 +1,9 @@
 #include "contact/material.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "framework/error.hpp"
 
@@ -47,6 +49,21 @@ const ContactLaw& MaterialTable::law(int a, int b) const {
   return index < 0 ? default_law_ : laws_[index];
 }
 
+double MaterialTable::adhesionReach() const {
+  double reach = -1.0;
+  for (int a = 0; a < size(); ++a)
+    for (int b = a; b < size(); ++b)
+      if (law(a, b).adhesive()) reach = std::max(reach, law(a, b).adhesion_range);
+  return reach;
+}
+
+bool MaterialTable::hasSurfaceEnergy() const {
+  for (int a = 0; a < size(); ++a)
+    for (int b = a; b < size(); ++b)
+      if (law(a, b).surface_energy > 0.0) return true;
+  return false;
+}
+
 bool MaterialTable::frictionless() const {
   for (int a = 0; a < size(); ++a)
     for (int b = a; b < size(); ++b)
@@ -69,6 +86,24 @@ void validateContactLaw(const ContactLaw& law, const std::string& owner) {
     throw InputError(owner + ": restitution must be in [0, 1], got " + show(law.restitution));
   if (!(std::isfinite(law.rolling) && law.rolling >= 0.0))
     throw InputError(owner + ": rolling_resistance must be >= 0, got " + show(law.rolling));
+  const std::pair<const char*, double> adhesion[] = {{"adhesion_force", law.adhesion_force},
+                                                     {"surface_energy", law.surface_energy},
+                                                     {"adhesion_range", law.adhesion_range}};
+  for (const auto& [name, value] : adhesion)
+    if (!(std::isfinite(value) && value >= 0.0))
+      throw InputError(owner + ": " + name + " must be >= 0, got " + show(value));
+}
+
+double reducedRadius(double radius_a, double radius_b) {
+  if (radius_a > 0.0 && radius_b > 0.0) return radius_a * radius_b / (radius_a + radius_b);
+  return std::max({radius_a, radius_b, 0.0});
+}
+
+double pullOffForce(const ContactLaw& law, double radius_a, double radius_b) {
+  double force = law.adhesion_force;
+  if (law.surface_energy > 0.0)
+    force += 4.0 * M_PI * law.surface_energy * reducedRadius(radius_a, radius_b);
+  return force;
 }
 
 }  // namespace sweep

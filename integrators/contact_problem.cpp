@@ -248,6 +248,14 @@ bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id) 
   return cdata.contacts[id].gap <= (held ? heldGap(cmodel) : touchingGap(cmodel));
 }
 
+double adhesionForce(const ContactModel& cmodel, const Contact& c) {
+  const ContactModel::Traits& a = cmodel.traits[c.key.geometry_a];
+  const ContactModel::Traits& b = cmodel.traits[c.key.geometry_b];
+  const ContactLaw& law = cmodel.materials.law(a.material, b.material);
+  if (!law.adhesive() || c.gap > std::max(law.adhesion_range, heldGap(cmodel))) return 0.0;
+  return pullOffForce(law, a.ball_radius, b.ball_radius);
+}
+
 double normalBias(NormalLaw law, double restitution, double u_start, double gap, double tau) {
   double bias = restitution * u_start;
   if (law == NormalLaw::Iqs) bias += std::max(gap, 0.0) / tau;

@@ -472,6 +472,10 @@ double touchingGap(const ContactModel& cmodel);
 double heldGap(const ContactModel& cmodel);
 // Whether VEL's index set takes detected contact `id` (cdata.held read where it is sized).
 bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id);
+// The pull-off force of detected contact c (ContactLaw, adhesion): its law's F where the law is
+// adhesive and the gap at q_m is at most its adhesion_range (or heldGap, so that a contact VEL
+// holds closed is adhesive whatever the range), else 0.
+double adhesionForce(const ContactModel& cmodel, const Contact& c);
 
 // Builds the problem from cdata.contacts/jacobian (assembled at q_m and time t) and the
 // factored mass blocks of data (at q_m); rows in body form (rowInBodyForm) from the contacts

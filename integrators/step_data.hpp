@@ -156,6 +156,9 @@ struct StepData {
   // 5, by row: impulses (normal, tangents), rolling impulses; scheme B's stage values
   std::vector<Vector3> P;
   std::vector<Vector2> R;
+  // by row: h F of an adhesive row (ContactLaw), empty when the scene has no adhesion. The
+  // solvers work on P~ = P + (h F, 0, 0) >= 0; P is P~ less h F again after the solve.
+  std::vector<double> adhesion_impulse;
   std::vector<double> lambda_N, delta;
   std::vector<Vector2> lambda_T;
   // FrictionStageOptions::threshold_updates: v after stage 5a, the rounds' threshold impulses

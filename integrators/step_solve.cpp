@@ -20,12 +20,40 @@ double seconds(Clock::time_point since) {
 
 namespace stepping {
 
+namespace {
+// Adhesion (ContactLaw; docs/schemes.md, "Adhesion"): on a row with P_N >= -h F the solvers see
+// P~ = P + (h F, 0, 0) >= 0, the plain law with the thresholds mu P~_N and mu_r R* P~_N, and a
+// contact-free velocity that carries the impulse -h F of every adhesive row. Shifts the warm
+// starts d.P, and v_free where asked (once a step: screening never defers an adhesive row).
+void shiftForAdhesion(const StepModel& m, StepData& d, bool shift_velocity) {
+  d.adhesion_impulse.clear();
+  if (!m.cmodel.adhesive()) return;
+  const int n = d.problem.size();
+  d.adhesion_impulse.assign(n, 0.0);
+  for (int c = 0; c < n; ++c) {
+    const int id = d.problem.contact[c];
+    if (id < 0) continue;  // joint limits and constraints
+    const double impulse = m.settings.h * adhesionForce(m.cmodel, d.contact_data.contacts[id]);
+    if (impulse == 0.0) continue;
+    d.adhesion_impulse[c] = impulse;
+    d.P[c].x() += impulse;
+    if (shift_velocity) d.problem.applyImpulse(c, Vector3(-impulse, 0.0, 0.0), d.v_free);
+  }
+}
+// P = P~ - h F: the impulses the update's work and the outputs read
+void unshiftAdhesion(StepData& d) {
+  for (std::size_t c = 0; c < d.adhesion_impulse.size(); ++c) d.P[c].x() -= d.adhesion_impulse[c];
+}
+}  // namespace
+
 void solve(const StepModel& m, StepData& d) {
   d.stats.solves = 1;
   d.stats.deferred = d.stats.unassembled = 0;
+  shiftForAdhesion(m, d, true);
   if (!m.settings.screening) {
     m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
     keepImpulses(m, d);
+    unshiftAdhesion(d);
     return;
   }
   d.v_contact_free = d.v_free;
@@ -49,7 +77,9 @@ void solve(const StepModel& m, StepData& d) {
     d.v_free = d.v_contact_free;
     if (d.jacobian_stale) assembleJacobian(m, d);
     assembleProblem(m, d);
+    shiftForAdhesion(m, d, false);
   }
+  unshiftAdhesion(d);
   d.contact_dv = d.v_free - d.v_contact_free;
   d.stats.iterations_stage1 = iterations1;
   d.stats.iterations_stage2 = iterations2;
@@ -116,6 +146,7 @@ void keepImpulses(const StepModel& m, StepData& d) {
       return;
     }
     d.impulse[id] = d.P[c];
+    if (!d.adhesion_impulse.empty()) d.impulse[id].x() -= d.adhesion_impulse[c];
     if (d.problem.rolling) d.rolling[id] = d.R[c];
     d.solved[id] = 1;
   });

@@ -270,11 +270,13 @@ void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   d.impulse.assign(d.contact_data.contacts.size(), Vector3::Zero());
   const int contacts = static_cast<int>(d.contact_data.contacts.size());
   d.contact_data.held.resize(contacts);
+  const bool adhesive = m.cmodel.adhesive();  // a contact that pulled is held too
   forEachIndex(contacts, m.threads, [&](int id) {
     const int previous = d.contact_data.contacts[id].previous;
     d.contact_data.held[id] = previous >= 0 &&
                               previous < static_cast<int>(d.previous_impulse.size()) &&
-                              d.previous_impulse[previous].x() > 0.0;
+                              (d.previous_impulse[previous].x() > 0.0 ||
+                               (adhesive && d.previous_impulse[previous].x() < 0.0));
   });
   std::swap(d.staged, d.previous_staged);
   d.staged.assign(d.contact_data.contacts.size(), StagedImpulse{});
@@ -417,6 +419,10 @@ void assemble(const StepModel& m, StepData& d) {
   d.deferred.assign(contacts, 0);
   d.unassembled.assign(contacts, 0);
   d.screening_bias.resize(contacts);
+  // an adhesive row pulls whether or not it closes: never left out (its impulse is in v_free)
+  auto adhesive = [&](const Contact& contact) {
+    return m.cmodel.adhesive() && adhesionForce(m.cmodel, contact) > 0.0;
+  };
   if (d.contact_dv.size() != m.model.nv) d.contact_dv = VectorX::Zero(m.model.nv);
   d.v_predicted = d.v_free + d.contact_dv;  // the last step's contact push, repeated
   // Candidates between free bodies (and walls, driven bodies) are judged from their bodies'
@@ -433,7 +439,8 @@ void assemble(const StepModel& m, StepData& d) {
   };
   forEachIndex(contacts, threads, [&](int id) {
     const Contact& contact = d.contact_data.contacts[id];
-    if (m.settings.normal_law == NormalLaw::Vel || contact.gap <= near || d.contact_data.held[id])
+    if (m.settings.normal_law == NormalLaw::Vel || contact.gap <= near || d.contact_data.held[id] ||
+        adhesive(contact))
       return;
     std::array<double, 3> u;  // at the start, contact-free, contact-free plus the last push
     if (!normalVelocitiesFromTwists<3>(m.model, d.model_data, contact,
@@ -451,7 +458,7 @@ void assemble(const StepModel& m, StepData& d) {
     if (betweenRoots(m.model, contact)) return;
     if (m.settings.normal_law == NormalLaw::Vel && !closedForVel(m.cmodel, d.contact_data, id))
       return;
-    if (contact.gap <= near || d.contact_data.held[id]) return;
+    if (contact.gap <= near || d.contact_data.held[id] || adhesive(contact)) return;
     d.deferred[id] =
         leaveOut(contact, J.relativeVelocity(id, d.v).x(), J.relativeVelocity(id, d.v_free).x(),
                  J.relativeVelocity(id, d.v_predicted).x(), d.screening_bias[id]);

@@ -102,6 +102,10 @@ void PowderBedParameters::validate(const std::string& o) const {
           "must be in [0, 1]");
   require(std::isfinite(rolling_resistance) && rolling_resistance >= 0.0, o, "rolling_resistance",
           rolling_resistance, "must be >= 0");
+  require(std::isfinite(surface_energy) && surface_energy >= 0.0, o, "surface_energy",
+          surface_energy, "must be >= 0");
+  require(std::isfinite(adhesion_range) && adhesion_range >= 0.0, o, "adhesion_range",
+          adhesion_range, "must be >= 0");
   require(std::isfinite(gravity), o, "gravity", gravity, "must be finite");
   for (const auto& [name, value] : {std::pair<const char*, double>{"length", length},
                                     {"width", width},
@@ -188,7 +192,9 @@ SceneSpec powderBed(const PowderBedParameters& p) {
   spec.dimension = 3;
   spec.gravity = Vector3(0.0, -p.gravity, 0.0);
   spec.materials = {{"powder", p.density}, {"wall", 0.0}};
-  const ContactLaw law{p.friction, p.restitution, p.rolling_resistance};
+  ContactLaw law{p.friction, p.restitution, p.rolling_resistance};
+  law.surface_energy = p.surface_energy;
+  law.adhesion_range = p.adhesion_range;
   spec.laws = {{"powder", "powder", law}, {"powder", "wall", law}};
   spec.detection.path = DetectionPathChoice::Analytic;
   spec.detection.periodic.axis = 2;

@@ -25,6 +25,9 @@ struct PowderBedParameters {
   double friction = 0.5;    // particle-particle and particle-wall
   double restitution = 0.5;
   double rolling_resistance = 0.1;
+  // adhesion of every pair (ContactLaw): DMT pull-off 4 pi gamma R*, within adhesion_range
+  double surface_energy = 0.0;  // J/m^2
+  double adhesion_range = 0.0;  // m
   double gravity = 9.81;
   double length = 6e-3;    // domain along x
   double width = 0.4e-3;   // periodic period along z

@@ -49,6 +49,15 @@ const char* shapeKeyword(ShapeType type) {
 }
 
 // the keys parseSolver reads, in its order (stage: scheme B's, which choose their solver)
+// the adhesion keys a law sets (all zero: none, as a scene without adhesion writes them)
+void emitAdhesion(YAML::Emitter& out, const ContactLaw& law) {
+  const std::pair<const char*, double> keys[] = {{"adhesion_force", law.adhesion_force},
+                                                 {"surface_energy", law.surface_energy},
+                                                 {"adhesion_range", law.adhesion_range}};
+  for (const auto& [key, value] : keys)
+    if (value > 0.0) out << YAML::Key << key << YAML::Value << value;
+}
+
 void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s, bool stage) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   if (stage) out << YAML::Key << "solver" << YAML::Value << enumName(s.solver);
@@ -244,6 +253,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
   out << YAML::Key << "restitution" << YAML::Value << spec.default_law.restitution;
   if (spec.default_law.rolling > 0.0)
     out << YAML::Key << "rolling_resistance" << YAML::Value << spec.default_law.rolling;
+  emitAdhesion(out, spec.default_law);
   out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
   for (const ContactLawSpec& l : spec.laws) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "materials" << YAML::Value << YAML::Flow
@@ -252,6 +262,7 @@ void writeSceneFile(const SceneFile& scene, const std::string& path) {
     out << YAML::Key << "restitution" << YAML::Value << l.law.restitution;
     if (l.law.rolling > 0.0)
       out << YAML::Key << "rolling_resistance" << YAML::Value << l.law.rolling;
+    emitAdhesion(out, l.law);
     out << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;

@@ -128,18 +128,23 @@ ContactLaw SceneParser::parseLaw(const YamlField& f, const ContactLaw& fallback)
       f["restitution"].fail("must be in [0, 1]");
   }
   law.rolling = f.nonNegative("rolling_resistance", law.rolling);
+  law.adhesion_force = f.nonNegative("adhesion_force", law.adhesion_force);
+  law.surface_energy = f.nonNegative("surface_energy", law.surface_energy);
+  law.adhesion_range = f.nonNegative("adhesion_range", law.adhesion_range);
   return law;
 }
 
 void SceneParser::parseContact(const YamlField& contact) {
-  contact.allowOnly({"friction", "restitution", "rolling_resistance", "pairs"});
+  contact.allowOnly({"friction", "restitution", "rolling_resistance", "adhesion_force",
+                     "surface_energy", "adhesion_range", "pairs"});
   out_.spec.default_law = parseLaw(contact, out_.spec.default_law);
   if (!contact.has("pairs")) return;
   const YamlField pairs = contact["pairs"];
   pairs.requireSequence();
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const YamlField p = pairs.at(i);
-    p.allowOnly({"materials", "friction", "restitution", "rolling_resistance"});
+    p.allowOnly({"materials", "friction", "restitution", "rolling_resistance", "adhesion_force",
+                 "surface_energy", "adhesion_range"});
     const YamlField names = p["materials"];
     if (!names.isSequence() || names.size() != 2) names.fail("must name two materials");
     ContactLawSpec law{names.at(0).text(), names.at(1).text(), parseLaw(p, out_.spec.default_law)};
