@@ -245,7 +245,10 @@ double heldGap(const ContactModel& cmodel) {
 
 bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id) {
   const bool held = id < static_cast<int>(cdata.held.size()) && cdata.held[id];
-  return cdata.contacts[id].gap <= (held ? heldGap(cmodel) : touchingGap(cmodel));
+  const Contact& c = cdata.contacts[id];
+  if (c.gap <= (held ? heldGap(cmodel) : touchingGap(cmodel))) return true;
+  // an adhesive contact within its range pulls before it touches: a row, with IQS's gap term
+  return cmodel.adhesive() && adhesionForce(cmodel, c) > 0.0;
 }
 
 double adhesionForce(const ContactModel& cmodel, const Contact& c) {

@@ -470,7 +470,8 @@ double touchingGap(const ContactModel& cmodel);
 // it for a step (h^2 g). Contacts that did not push keep touchingGap: their impacts come at the
 // same step as without it.
 double heldGap(const ContactModel& cmodel);
-// Whether VEL's index set takes detected contact `id` (cdata.held read where it is sized).
+// Whether VEL's index set takes detected contact `id` (cdata.held read where it is sized): a
+// closed contact, or an adhesive one within its law's range (adhesionForce).
 bool closedForVel(const ContactModel& cmodel, const ContactData& cdata, int id);
 // The pull-off force of detected contact c (ContactLaw, adhesion): its law's F where the law is
 // adhesive and the gap at q_m is at most its adhesion_range (or heldGap, so that a contact VEL

@@ -68,6 +68,9 @@ void ProblemAssembly::finishRowTail(int pc, const std::vector<int>& touched, Mat
   const Vector3 u_start = p.localVelocity(pc, v_start);
   p.velocity_start[pc] = u_start;
   p.normal_bias[pc] = normalBias(law, e, u_start.x(), gap, tau);
+  // VEL's open adhesive rows (closedForVel) may close their gap within the step, as under IQS
+  if (law == NormalLaw::Vel && cmodel.adhesive() && gap > heldGap(cmodel))
+    p.normal_bias[pc] += gap / tau;
   if (p.rolling) {
     if (p.dimension == 2) W_r(1, 1) = W_r(0, 0);  // keeps the unused axis inert, not singular
     // a pair whose bodies cannot turn (no rotational inertia reached) has no rolling row

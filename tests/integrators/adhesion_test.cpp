@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
+#include "framework/enum_names.hpp"
 #include "framework/error.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/granular.hpp"
@@ -29,7 +31,7 @@ class Adhesion : public ::testing::TestWithParam<Scheme> {
 struct BallUnderCeiling {
   Model model;
   ContactModel cmodel;
-  BallUnderCeiling(double mass, double radius, double surface_energy) {
+  BallUnderCeiling(double mass, double radius, double surface_energy, double range = 0.0) {
     ModelBuilder mb("ball under a ceiling");
     addFreeBody(mb, "ball", solidSphereInertia(mass, radius));
     mb.setGravity(Vector3(0, 0, 9.81));
@@ -37,6 +39,7 @@ struct BallUnderCeiling {
     ContactModelBuilder cb(model);
     ContactLaw law{0.5, 0.0};
     law.surface_energy = surface_energy;
+    law.adhesion_range = range;
     cb.materials().setDefaultLaw(law);
     cb.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(radius));
     cb.addGeometry("ceiling", BodyRef::world(), Pose::identity(), Shape::halfSpace());
@@ -73,6 +76,40 @@ TEST_P(Adhesion, ABallHangsUnderACeilingWhileItsPullOffForceExceedsItsWeight) {
       const double drop = stepper.q()[2] - r;
       EXPECT_GT(drop, 0.5 * g * (T - h) * (T - h));
       EXPECT_LT(drop, 0.5 * g * T * T);
+    }
+  }
+}
+
+// A ball below the ceiling within adhesion_range is pulled up to it (net acceleration
+// F / m - g = g) under every normal law and hangs there (under VEL and IQS at rest, with the
+// landing's overlap); one beyond the range falls.
+TEST_P(Adhesion, ABallWithinTheRangeIsPulledUpAndOneBeyondItFalls) {
+  const double m = 2.0, r = 0.1, g = 9.81, h = 1e-3, range = 1e-3;
+  const double gamma = 2.0 * m * g / (4.0 * M_PI * r);  // F = 2 m g
+  for (const NormalLaw law : {NormalLaw::Vel, NormalLaw::Iqs, NormalLaw::Pos}) {
+    for (const double gap : {0.5 * range, 2.0 * range}) {
+      const BallUnderCeiling scene(m, r, gamma, range);
+      SchemeSettings s = settings(h);
+      s.normal_law = law;
+      TimeStepper stepper(scene.model, scene.cmodel, s);
+      VectorX q = scene.model.neutralConfiguration();
+      q[2] = r + gap;
+      stepper.reset(0.0, q, VectorX::Zero(6));
+      for (int k = 0; k < 100; ++k) stepper.step();
+      const std::string what = std::string(enumName(law)) + ", gap " + std::to_string(gap);
+      if (gap < range && law == NormalLaw::Pos) {
+        // POS pushes the landing's overlap out as a separation speed; the pull keeps it within
+        EXPECT_LT(std::abs(stepper.q()[2] - r), range) << what;
+      } else if (gap < range) {
+        // VEL and IQS keep the overlap of the landing step, h/2 times the arrival speed
+        const double arrival = std::sqrt(2.0 * (2.0 * g - g) * gap);
+        EXPECT_LE(r - stepper.q()[2], 0.5 * h * arrival) << what;
+        EXPECT_GE(r - stepper.q()[2], 0.0) << what;
+        EXPECT_LT(stepper.v().norm(), 1e-9) << what;
+        EXPECT_NEAR(stepper.impulses()[0].x(), -m * g * h, 1e-9 * m * g * h) << what;
+      } else {
+        EXPECT_GT(stepper.q()[2] - r - gap, 0.5 * g * 0.099 * 0.099) << what;
+      }
     }
   }
 }
