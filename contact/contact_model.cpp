@@ -176,6 +176,25 @@ double characteristicSize(const Shape& s) {
       return boundingRadius(s);
   }
 }
+// what the laws that can apply (pairs of the used materials) ask of the solve: friction,
+// rolling rows, adhesion's reach; a 2D scene with a surface energy is refused
+void setLawFlags(const MaterialTable& materials, const std::set<int>& used, ContactModel& cm) {
+  cm.frictionless = true;
+  for (int a : used)
+    for (int b : used) {
+      const ContactLaw& law = materials.law(a, b);
+      if (law.friction > 0.0 || law.rolling > 0.0) cm.frictionless = false;
+      cm.rolling = cm.rolling || law.rolling > 0.0;
+      if (!law.adhesive()) continue;
+      // 4 pi gamma R* is a force; a 2D scene's forces are per unit thickness
+      if (cm.dimension == 2 && law.surface_energy > 0.0)
+        throw InputError("contact law '" + materials.name(a) + "'-'" + materials.name(b) +
+                         "': surface_energy " + formatValue(law.surface_energy) +
+                         " is a 3D law (pull-off force 4 pi gamma R*); a 2D scene gives "
+                         "adhesion_force, per unit thickness");
+      cm.adhesion_reach = std::max(cm.adhesion_reach, law.adhesion_range);
+    }
+}
 }  // namespace
 
 // Periodic scenes: images exist for balls on free bodies only, through the analytic path, and
@@ -319,25 +338,7 @@ ContactModel ContactModelBuilder::build() const {
 
   std::set<int> used;
   for (const Geometry& g : geometries_) used.insert(g.material);
-  cm.frictionless = true;
-  for (int a : used)
-    for (int b : used)
-      if (materials_.law(a, b).friction > 0.0 || materials_.law(a, b).rolling > 0.0) {
-        cm.frictionless = false;
-        cm.rolling = cm.rolling || materials_.law(a, b).rolling > 0.0;
-      }
-  for (int a : used)
-    for (int b : used) {
-      const ContactLaw& law = materials_.law(a, b);
-      if (!law.adhesive()) continue;
-      // 4 pi gamma R* is a force; a 2D scene's forces are per unit thickness
-      if (cm.dimension == 2 && law.surface_energy > 0.0)
-        throw InputError("contact law '" + materials_.name(a) + "'-'" + materials_.name(b) +
-                         "': surface_energy " + formatValue(law.surface_energy) +
-                         " is a 3D law (pull-off force 4 pi gamma R*); a 2D scene gives "
-                         "adhesion_force, per unit thickness");
-      cm.adhesion_reach = std::max(cm.adhesion_reach, law.adhesion_range);
-    }
+  setLawFlags(materials_, used, cm);
   if (settings_.periodic.enabled()) addPeriodicCoordinates(cm);
   return cm;
 }

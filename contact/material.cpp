@@ -49,21 +49,6 @@ const ContactLaw& MaterialTable::law(int a, int b) const {
   return index < 0 ? default_law_ : laws_[index];
 }
 
-double MaterialTable::adhesionReach() const {
-  double reach = -1.0;
-  for (int a = 0; a < size(); ++a)
-    for (int b = a; b < size(); ++b)
-      if (law(a, b).adhesive()) reach = std::max(reach, law(a, b).adhesion_range);
-  return reach;
-}
-
-bool MaterialTable::hasSurfaceEnergy() const {
-  for (int a = 0; a < size(); ++a)
-    for (int b = a; b < size(); ++b)
-      if (law(a, b).surface_energy > 0.0) return true;
-  return false;
-}
-
 bool MaterialTable::frictionless() const {
   for (int a = 0; a < size(); ++a)
     for (int b = a; b < size(); ++b)

@@ -47,10 +47,6 @@ class MaterialTable {
   bool frictionless() const;
   // true when some pair has mu_r > 0: the rolling rows are assembled
   bool hasRolling() const;
-  // the largest adhesion_range among adhesive laws; < 0 when no law is adhesive
-  double adhesionReach() const;
-  // a pair law (or the default law) with surface_energy: refused in 2D scenes
-  bool hasSurfaceEnergy() const;
 
  private:
   std::vector<std::string> names_;

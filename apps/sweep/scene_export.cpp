@@ -48,7 +48,6 @@ const char* shapeKeyword(ShapeType type) {
   }
 }
 
-// the keys parseSolver reads, in its order (stage: scheme B's, which choose their solver)
 // the adhesion keys a law sets (all zero: none, as a scene without adhesion writes them)
 void emitAdhesion(YAML::Emitter& out, const ContactLaw& law) {
   const std::pair<const char*, double> keys[] = {{"adhesion_force", law.adhesion_force},
@@ -58,6 +57,7 @@ void emitAdhesion(YAML::Emitter& out, const ContactLaw& law) {
     if (value > 0.0) out << YAML::Key << key << YAML::Value << value;
 }
 
+// the keys parseSolver reads, in its order (stage: scheme B's, which choose their solver)
 void emitSolver(YAML::Emitter& out, const char* key, const SolverSettings& s, bool stage) {
   out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
   if (stage) out << YAML::Key << "solver" << YAML::Value << enumName(s.solver);

@@ -6,11 +6,9 @@
 // scheme, the solver or the detection moves grains by far more (contacts form from step 40).
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <fstream>
-#include <iomanip>
 
 #include "apps/sweep/scene_file.hpp"
+#include "golden.hpp"
 
 namespace sweep {
 namespace {
@@ -29,23 +27,9 @@ TEST_P(FunnelGolden, FinalPositionsMatchTheStoredRun) {
 
   const std::string path =
       std::string(SWEEP_TEST_DATA) + "/golden/funnel_200_" + enumName(GetParam()) + ".csv";
-  const VectorX& q = stepper.q();
-  if (std::getenv("SWEEP_UPDATE_GOLDEN") != nullptr) {
-    std::ofstream out(path);
-    out << std::setprecision(17);
-    for (int i = 0; i < q.size(); ++i) out << q[i] << "\n";
-    GTEST_SKIP() << "rewrote " << path;
-  }
-  std::ifstream in(path);
-  ASSERT_TRUE(in) << path;
-  std::vector<double> stored;
-  for (double x; in >> x;) stored.push_back(x);
-  ASSERT_EQ(static_cast<int>(stored.size()), q.size());
-  double worst = 0.0;
-  for (int i = 0; i < q.size(); ++i) {
-    if (i % 3 == 2) continue;  // angles: compared through the positions they carry
-    worst = std::max(worst, std::abs(q[i] - stored[i]));
-  }
+  if (test::rewriteGolden(path, stepper.q())) GTEST_SKIP() << "rewrote " << path;
+  // angles: compared through the positions they carry
+  const double worst = test::goldenDifference(path, stepper.q(), [](int i) { return i % 3 != 2; });
   EXPECT_LT(worst, 1e-9);
 }
 

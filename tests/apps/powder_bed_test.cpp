@@ -3,9 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
-#include <iomanip>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -14,6 +11,7 @@
 #include "apps/sweep/scene_file.hpp"
 #include "framework/error.hpp"
 #include "framework/kinematics.hpp"
+#include "golden.hpp"
 #include "integrators/time_stepper.hpp"
 #include "models/powder_bed.hpp"
 
@@ -489,23 +487,9 @@ TEST_P(AdhesiveGolden, FinalPositionsMatchTheStoredRun) {
 
   const std::string path =
       std::string(SWEEP_TEST_DATA) + "/golden/powder_adhesive_500_" + GetParam() + ".csv";
-  const VectorX& q = stepper.q();
-  if (std::getenv("SWEEP_UPDATE_GOLDEN") != nullptr) {
-    std::ofstream out(path);
-    out << std::setprecision(17);
-    for (int i = 0; i < q.size(); ++i) out << q[i] << "\n";
-    GTEST_SKIP() << "rewrote " << path;
-  }
-  std::ifstream in(path);
-  ASSERT_TRUE(in) << path;
-  std::vector<double> stored;
-  for (double x; in >> x;) stored.push_back(x);
-  ASSERT_EQ(static_cast<int>(stored.size()), q.size());
-  double worst = 0.0;
-  for (int i = 0; i < q.size(); ++i) {
-    if (i % 7 >= 3) continue;  // orientations: compared through the positions they carry
-    worst = std::max(worst, std::abs(q[i] - stored[i]));
-  }
+  if (test::rewriteGolden(path, stepper.q())) GTEST_SKIP() << "rewrote " << path;
+  // orientations: compared through the positions they carry
+  const double worst = test::goldenDifference(path, stepper.q(), [](int i) { return i % 7 < 3; });
   EXPECT_LT(worst, 1e-12);
 }
 
