@@ -310,16 +310,12 @@ SolverStats solveNormalStageConvex(const ContactProblem& p, const SolverSettings
   return stats;
 }
 
-namespace {
-
-// v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1 (stage 5b's projection of v1 on the
-// closed normals): conjugate gradients (every block free); then each row's offset W_T^T v_N.
-// Returns the row visits it took.
 long projectOnClosedNormalsByCg(const ContactProblem& p, const SolverSettings& settings,
                                 const FrictionRowRule& rule, const VectorX& v,
                                 SolverWorkspace& nlgs) {
   SolverWorkspace::Convex& ws = nlgs.convex;
   const int n = p.size();
+  collectDofs(p, static_cast<int>(v.size()), ws);
   prepareRows(ws, n);
   ws.x.clear();
   for (int c = 0; c < n; ++c) {
@@ -342,6 +338,8 @@ long projectOnClosedNormalsByCg(const ContactProblem& p, const SolverSettings& s
   }
   return static_cast<long>(projection.products) * n;
 }
+
+namespace {
 
 // The program's blocks, each scaled to about a unit diagonal, and the warm start: per row its
 // normal correction (held: free, guarded: >= 0), tangential impulse (a disc, an interval in

@@ -43,4 +43,12 @@ SolverStats solveFrictionStageConvex(const ContactProblem& problem, const Solver
                                      std::vector<Vector2>* rolling = nullptr,
                                      const std::vector<double>* threshold_impulse = nullptr);
 
+// v_N = M^-1 N_A y with (N_A^T M^-1 N_A) y = N_A^T v1, stage 5b's projection of v1 on the
+// closed normals, for both of its solvers: conjugate gradients (MPRGP with every block free,
+// which converges in about sqrt(cond) products where Gauss-Seidel needs about cond sweeps);
+// then each row's offset W_T^T v_N in workspace.offset. Returns the row visits it took.
+long projectOnClosedNormalsByCg(const ContactProblem& problem, const SolverSettings& settings,
+                                const FrictionRowRule& rule, const VectorX& v1,
+                                SolverWorkspace& workspace);
+
 }  // namespace sweep

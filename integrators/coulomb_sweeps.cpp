@@ -26,34 +26,6 @@ void coulombResidualTerms(const RowReader& rows, const std::vector<Vector3>& P,
       });
 }
 
-// chunked: over the coloured sweeps' chunks on `threads` threads, the sums per chunk added in
-// chunk order (the same bits for every thread count); otherwise over ws.order[0, count)
-double coulombResidual(const ContactProblem& p, const std::vector<Vector3>& P,
-                       const std::vector<Vector2>* R, const VectorX& v, SolverWorkspace& ws,
-                       int count, bool chunked = false, int threads = 1) {
-  // every packed form: the residual reads what the generic arrays hold, to the bit
-  const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
-  if (chunked) {
-    const int chunks = ws.colour_chunk[kColours + 1];
-    parallelFor(chunks, threads, [&](int chunk) {
-      const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
-      double f2 = 0.0, scale2 = 0.0;
-      coulombResidualTerms(rows, P, R, v, ws.order.data() + first, last - first, f2, scale2);
-      ws.chunk_change2[chunk] = f2;
-      ws.chunk_size2[chunk] = scale2;
-    });
-    double f2 = 0.0, scale2 = 0.0;
-    for (int chunk = 0; chunk < chunks; ++chunk) {
-      f2 += ws.chunk_change2[chunk];
-      scale2 += ws.chunk_size2[chunk];
-    }
-    return relative(f2, scale2);
-  }
-  double f2 = 0.0, scale2 = 0.0;
-  coulombResidualTerms(rows, P, R, v, ws.order.data(), count, f2, scale2);
-  return relative(f2, scale2);
-}
-
 // The rows order[first, last) updated once each, in order.
 struct CoulombSweep {
   const RowReader& rows;
@@ -78,14 +50,11 @@ struct CoulombSweep {
 SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& settings,
                           std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
                           SolverWorkspace& ws, int n) {
-  SolverStats stats;
   // packed 3D rows hold the rolling rows too: read so when R covers every row
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
   const RowReader rows(
       p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
-  const bool coloured = n >= settings.parallel_rows && !settings.shuffle && rows.packed() &&
-                        p.row_components.size() == static_cast<std::size_t>(p.size()) &&
-                        ws.row_colour.size() >= static_cast<std::size_t>(n);
+  const bool coloured = sweepsInColours(p, settings, rows.packed(), ws, n);
   // the warm start of the island's rows (the other islands move other velocities): a
   // coloured island's chunk by chunk, as its sweeps go
   if (coloured) {
@@ -102,45 +71,18 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
     momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n,
                      coloured ? settings.threads : 1);
   const CoulombSweep sweep{rows, settings, P, R, ws.order.data()};
-  // one chunk of a coloured sweep, its sums kept apart
-  const auto sweepChunk = [&](int chunk) {
-    double change2 = 0.0, size2 = 0.0;
-    int failures = 0;
-    sweep(ws.chunk_begin[chunk], ws.chunk_begin[chunk + 1], v, change2, size2, failures);
-    ws.chunk_change2[chunk] = change2;
-    ws.chunk_size2[chunk] = size2;
-    ws.chunk_failures[chunk] = failures;
-  };
-  for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it, n);
-    double change2 = 0.0, size2 = 0.0;
-    stats.local_failures = 0;
-    if (coloured) {
-      forEachColourChunk(ws, settings.threads, sweepChunk);
-      for (int chunk = 0; chunk < ws.colour_chunk[kColours + 1]; ++chunk) {
-        change2 += ws.chunk_change2[chunk];
-        size2 += ws.chunk_size2[chunk];
-        stats.local_failures += ws.chunk_failures[chunk];
-      }
-    } else {
-      sweep(0, n, v, change2, size2, stats.local_failures);
-    }
-    stats.iterations = it + 1;
-    if (residualDue(settings, it, change2, size2)) {
-      stats.residual = coulombResidual(p, P, R, v, ws, n, coloured, settings.threads);
-      if (momentum) momentum->watch(stats.residual);
-      if (stats.residual < settings.tolerance) {
-        stats.status = SolverStatus::Converged;
-        return stats;
-      }
-    }
-    // not after the last sweep: the impulses returned are a sweep's output
-    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
-  }
-  stats.residual = coulombResidual(p, P, R, v, ws, n, coloured, settings.threads);
-  stats.status =
-      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  return stats;
+  // every packed form: the residual reads what the generic arrays hold, to the bit
+  const RowReader residual_rows(
+      p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
+  return sweepIsland(
+      settings, ws, n, coloured, momentum ? &*momentum : nullptr, v,
+      [&](int first, int last, double& change2, double& size2, int& failures) {
+        sweep(first, last, v, change2, size2, failures);
+      },
+      [&](int first, int last, double& f2, double& scale2) {
+        coulombResidualTerms(residual_rows, P, R, v, ws.order.data() + first, last - first, f2,
+                             scale2);
+      });
 }
 
 }  // namespace

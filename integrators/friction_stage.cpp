@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "integrators/contact_laws.hpp"
+#include "integrators/convex_stages.hpp"
 #include "integrators/nlgs.hpp"
 #include "integrators/rows.hpp"
 #include "integrators/sweeps.hpp"
@@ -45,37 +46,6 @@ void prepareFrictionStage(const ContactProblem& p, const FrictionStageOptions& o
 
 namespace {
 
-// v_N, the M-projection of v1 on the span of the closed normals: v_N = M^-1 N_A y with
-// (N_A^T M^-1 N_A) y = N_A^T v1 (reference 4.3, 5b), by Gauss-Seidel on the closed set; then
-// each row's offset W_T^T v_N. Friction acts on the tangential part of the motion,
-// W_T^T (v - v_N); v_N is zero for e = 0 with VEL, and is what keeps KE(v2) <= KE(v1)
-// otherwise.
-void projectOnClosedNormals(const ContactProblem& p, const SolverSettings& settings,
-                            const FrictionRowRule& rule, const VectorX& v, SolverWorkspace& ws) {
-  const int n = p.size();
-  if (ws.v_normal.size() < v.size()) ws.v_normal.resize(v.size());
-  ws.v_normal.setZero();
-  std::fill(ws.y.begin(), ws.y.end(), 0.0);
-  for (int sweep_count = 0; sweep_count < settings.max_iterations; ++sweep_count) {
-    double change2 = 0.0, size2 = 0.0;
-    for (int c = 0; c < n; ++c) {
-      if (!rule.closed(c)) continue;
-      // residual of W_N^T v_N = W_N^T v1 (the known term cancels)
-      const double r = ws.held_normal[c] - p.localVelocity(c, ws.v_normal).x();
-      const double dy = r / p.delassus[c](0, 0);
-      p.applyImpulse(c, Vector3(dy, 0, 0), ws.v_normal);
-      ws.y[c] += dy;
-      change2 += dy * dy;
-      size2 += ws.y[c] * ws.y[c];
-    }
-    if (relative(change2, size2) < settings.tolerance) break;
-  }
-  for (int c = 0; c < n; ++c) {
-    const Vector3 u = p.localVelocity(c, ws.v_normal) - p.known[c];
-    ws.offset[c] = Vector2(u.y(), u.z());
-  }
-}
-
 // Applies an admissible warm start: contacts without threshold carry no friction, and the
 // sweep skips them, so nothing may be left on them; a guarded row pushes only, and only when
 // something can move it (`any`: no sweep runs otherwise).
@@ -94,46 +64,36 @@ void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v) {
   warmStartRolling(p, stage.R, v);
 }
 
-// The sweeps of one island, ws.order[0, count), to the tolerance or the cap.
+// The sweeps of one island, ws.order[0, count), to the tolerance or the cap. The periodic
+// residual check as in the other stages: with GLOBAL tangents in a hyperstatic heap the
+// bilateral corrections drift along redundant rows while the friction law is met.
 SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows,
                            const SolverSettings& settings, VectorX& v, SolverWorkspace& ws,
                            int count) {
-  SolverStats stats;
-  auto residual = [&] {
-    double f2 = 0.0, scale2 = 0.0;
-    rows.forEach(
-        ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
-          stage.residualTerms(row, ws.order[k], v, f2, scale2);
-        });
-    return relative(f2, scale2);
-  };
+  const bool coloured = sweepsInColours(stage.p, settings, rows.packed(), ws, count);
+  if (coloured) colourIsland(stage.p, ws, count);
   std::optional<NncgMomentum> momentum;
   if (settings.acceleration == NlgsAcceleration::Nncg)
     momentum.emplace(stage.p,
                      std::initializer_list<ImpulseArray>{impulses(&stage.lambda_T),
                                                          impulses(stage.delta), impulses(stage.R)},
-                     v, ws, count);
-  for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it, count);
-    double change2 = 0.0, size2 = 0.0;
-    rows.forEach(
-        ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
-          stage.update(row, ws.order[k], v, change2, size2);
-        });
-    stats.iterations = it + 1;
-    // the periodic check as in the other stages: with GLOBAL tangents in a hyperstatic heap
-    // the bilateral corrections drift along redundant rows while the friction law is met
-    if (residualDue(settings, it, change2, size2)) {
-      stats.residual = residual();
-      if (momentum) momentum->watch(stats.residual);
-      if (stats.residual < settings.tolerance) break;
-    }
-    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
-  }
-  if (stats.iterations == settings.max_iterations) stats.residual = residual();
+                     v, ws, count, coloured ? settings.threads : 1);
+  const int* order = ws.order.data();
+  SolverStats stats = sweepIsland(
+      settings, ws, count, coloured, momentum ? &*momentum : nullptr, v,
+      [&](int first, int last, double& change2, double& size2, int&) {
+        rows.forEach(
+            order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {
+              stage.update(row, order[k], v, change2, size2);
+            });
+      },
+      [&](int first, int last, double& f2, double& scale2) {
+        rows.forEach(
+            order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {
+              stage.residualTerms(row, order[k], v, f2, scale2);
+            });
+      });
   stats.updates = static_cast<long>(stats.iterations) * count;
-  stats.status =
-      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
   return stats;
 }
 
@@ -150,7 +110,7 @@ SolverStats solveFrictionStageNlgs(const ContactProblem& p, const SolverSettings
   prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, ws);
   const FrictionRowRule rule{p, options, lambda_N};
   std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
-  if (rule.needsProjection()) projectOnClosedNormals(p, settings, rule, v, ws);
+  if (rule.needsProjection()) projectOnClosedNormalsByCg(p, settings, rule, v, ws);
   const FrictionStageRows stage{
       p, options, rule, ws, lambda_N, delta, lambda_T, R, settings.relaxation};
   bool any = false;

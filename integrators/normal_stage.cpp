@@ -14,43 +14,32 @@ namespace sweep {
 
 namespace {
 
-double normalResidual(const RowReader& rows, const std::vector<double>& lambda_N, const VectorX& v,
-                      const SolverWorkspace& ws, int count) {
-  double f2 = 0.0, scale2 = 0.0;
-  rows.forEach(
-      ws.order.data(), 0, count, [&](int k, const auto& row) __attribute__((always_inline)) {
-        normalResidualTerms(row, lambda_N[ws.order[k]], v, f2, scale2);
-      });
-  return relative(f2, scale2);
-}
-
 SolverStats normalIsland(const ContactProblem& p, const SolverSettings& settings,
                          std::vector<double>& lambda_N, VectorX& v, SolverWorkspace& ws, int n) {
-  SolverStats stats;
-  // 3D rows from the generic arrays: the packed 3D rows carry no 1 / W_NN of their own
-  const RowReader rows(p, RowReader::kPacked2d);
+  // packed rows where the problem has them: their 1 / W_NN is the assembly's, so the sweeps
+  // give the entry rows' bits
+  const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d);
+  const bool coloured = sweepsInColours(p, settings, rows.packed(), ws, n);
+  if (coloured) colourIsland(p, ws, n);
   std::optional<NncgMomentum> momentum;
   if (settings.acceleration == NlgsAcceleration::Nncg)
-    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(lambda_N)}, v, ws, n);
-  for (int it = 0; it < settings.max_iterations; ++it) {
-    nextOrder(settings, ws, it, n);
-    double change2 = 0.0, size2 = 0.0;
-    rows.forEach(
-        ws.order.data(), 0, n, [&](int k, const auto& row) __attribute__((always_inline)) {
-          normalUpdate(row, settings.relaxation, lambda_N[ws.order[k]], v, change2, size2);
-        });
-    stats.iterations = it + 1;
-    if (residualDue(settings, it, change2, size2)) {
-      stats.residual = normalResidual(rows, lambda_N, v, ws, n);
-      if (momentum) momentum->watch(stats.residual);
-      if (stats.residual < settings.tolerance) return stats;
-    }
-    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
-  }
-  stats.residual = normalResidual(rows, lambda_N, v, ws, n);
-  stats.status =
-      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  return stats;
+    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(lambda_N)}, v, ws, n,
+                     coloured ? settings.threads : 1);
+  const int* order = ws.order.data();
+  return sweepIsland(
+      settings, ws, n, coloured, momentum ? &*momentum : nullptr, v,
+      [&](int first, int last, double& change2, double& size2, int&) {
+        rows.forEach(
+            order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {
+              normalUpdate(row, settings.relaxation, lambda_N[order[k]], v, change2, size2);
+            });
+      },
+      [&](int first, int last, double& f2, double& scale2) {
+        rows.forEach(
+            order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {
+              normalResidualTerms(row, lambda_N[order[k]], v, f2, scale2);
+            });
+      });
 }
 
 }  // namespace

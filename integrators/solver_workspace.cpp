@@ -5,11 +5,9 @@
 namespace sweep {
 
 void SolverWorkspace::prepare(int contacts, int nv, int components) {
-  y.resize(contacts);
   offset.resize(contacts);
   coupling.resize(contacts);
   schur.resize(contacts);
-  if (v_normal.size() < nv) v_normal.resize(nv);
   order.resize(contacts);
   threshold.resize(contacts);
   held_normal.resize(contacts);

@@ -26,9 +26,7 @@ struct SolverWorkspace {
   std::mt19937 rng;
   std::vector<double> threshold;    // friction stage: mu lambda_N per contact
   std::vector<double> held_normal;  // friction stage: normal velocity after stage 5a
-  std::vector<double> y;            // friction stage: normal-velocity part of v1, N_A y
   std::vector<Vector2> offset;      // friction stage: W_T^T v_N per contact
-  VectorX v_normal;                 // friction stage: v_N = M^-1 N_A y
   std::vector<Vector2> coupling;    // friction stage: W_TN / W_NN per contact
   std::vector<Matrix2> schur;       // friction stage: W_TT - W_TN W_NT / W_NN per contact
   // NNCG: the iterate before the sweep and the search direction, per contact and per dof of

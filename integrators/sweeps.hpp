@@ -324,4 +324,82 @@ class NncgMomentum {
   bool stopped_ = false;
 };
 
+// Whether an island of n rows is swept in colour order (colourIsland) on settings.threads
+// threads: large enough (settings.parallel_rows), unshuffled, on packed rows whose components
+// are known. The colour order is taken for every thread count, so the bits do not depend on it.
+inline bool sweepsInColours(const ContactProblem& p, const SolverSettings& settings,
+                            bool packed_rows, const SolverWorkspace& ws, int n) {
+  return n >= settings.parallel_rows && !settings.shuffle && packed_rows &&
+         p.row_components.size() == static_cast<std::size_t>(p.size()) &&
+         ws.row_colour.size() >= static_cast<std::size_t>(n);
+}
+
+// The sweeps of one island, ws.order[0, n), to the tolerance or the cap: the loop the three
+// NLGS solvers share. sweep(first, last, change2, size2, failures) updates the rows
+// ws.order[first, last) once each, in order; residual(first, last, f2, scale2) adds their
+// residual's terms. `coloured` (sweepsInColours, after colourIsland): the chunks of one colour
+// on settings.threads threads, every sum taken per chunk and added in chunk order. `momentum`:
+// NNCG's step after each sweep but the last, so that the impulses returned are a sweep's.
+template <class Sweep, class Residual>
+SolverStats sweepIsland(const SolverSettings& settings, SolverWorkspace& ws, int n, bool coloured,
+                        NncgMomentum* momentum, VectorX& v, Sweep&& sweep, Residual&& residual) {
+  const int chunks = coloured ? ws.colour_chunk[kColours + 1] : 0;
+  auto residualNow = [&] {
+    double f2 = 0.0, scale2 = 0.0;
+    if (!coloured) {
+      residual(0, n, f2, scale2);
+      return relative(f2, scale2);
+    }
+    parallelFor(chunks, settings.threads, [&](int chunk) {
+      double chunk_f2 = 0.0, chunk_scale2 = 0.0;
+      residual(ws.chunk_begin[chunk], ws.chunk_begin[chunk + 1], chunk_f2, chunk_scale2);
+      ws.chunk_change2[chunk] = chunk_f2;
+      ws.chunk_size2[chunk] = chunk_scale2;
+    });
+    for (int chunk = 0; chunk < chunks; ++chunk) {
+      f2 += ws.chunk_change2[chunk];
+      scale2 += ws.chunk_size2[chunk];
+    }
+    return relative(f2, scale2);
+  };
+  SolverStats stats;
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    nextOrder(settings, ws, it, n);
+    double change2 = 0.0, size2 = 0.0;
+    stats.local_failures = 0;
+    if (coloured) {
+      forEachColourChunk(ws, settings.threads, [&](int chunk) {
+        double chunk_change2 = 0.0, chunk_size2 = 0.0;
+        int failures = 0;
+        sweep(ws.chunk_begin[chunk], ws.chunk_begin[chunk + 1], chunk_change2, chunk_size2,
+              failures);
+        ws.chunk_change2[chunk] = chunk_change2;
+        ws.chunk_size2[chunk] = chunk_size2;
+        ws.chunk_failures[chunk] = failures;
+      });
+      for (int chunk = 0; chunk < chunks; ++chunk) {
+        change2 += ws.chunk_change2[chunk];
+        size2 += ws.chunk_size2[chunk];
+        stats.local_failures += ws.chunk_failures[chunk];
+      }
+    } else {
+      sweep(0, n, change2, size2, stats.local_failures);
+    }
+    stats.iterations = it + 1;
+    if (residualDue(settings, it, change2, size2)) {
+      stats.residual = residualNow();
+      if (momentum) momentum->watch(stats.residual);
+      if (stats.residual < settings.tolerance) {
+        stats.status = SolverStatus::Converged;
+        return stats;
+      }
+    }
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change2, v);
+  }
+  stats.residual = residualNow();
+  stats.status =
+      stats.residual < settings.tolerance ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  return stats;
+}
+
 }  // namespace sweep

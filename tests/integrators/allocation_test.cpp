@@ -98,12 +98,19 @@ TEST(NoAllocation, InsideEverySolver) {
     for (FrictionThreshold threshold : {FrictionThreshold::Physical, FrictionThreshold::Metric}) {
       FrictionStageOptions options;
       options.threshold = threshold;
-      std::vector<double> delta(n, 0.0);
-      VectorX v_c = v_b;
-      Counted counted;
-      solveFrictionStage(problem, nlgs, options, lambda_N, delta, lambda_T, v_c, ws);
-      counting = false;
-      EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " friction stage";
+      // POS: the projection on the closed normals runs, by conjugate gradients, whose
+      // workspace is sized on its first call (as the convex stages'): a second solve counts
+      for (int round = 0; round < 2; ++round) {
+        std::vector<double> delta(n, 0.0);
+        std::vector<Vector2> lambda_T_round = lambda_T;
+        VectorX v_c = v_b;
+        Counted counted;
+        solveFrictionStage(problem, nlgs, options, lambda_N, delta, lambda_T_round, v_c, ws);
+        counting = false;
+        if (round == 1) {
+          EXPECT_EQ(allocations, 0) << (planar ? "2D" : "3D") << " friction stage";
+        }
+      }
     }
   }
 }

@@ -1021,6 +1021,90 @@ TEST(ColouredSweeps, ComponentsNumberedPastTheVelocities) {
   EXPECT_FALSE(uncoloured == reference);  // the coloured order is another order
 }
 
+// Scheme B's NLGS stages swept in colours (parallel_rows lowered to reach them), with NNCG:
+// a settled 3D pile's stage 5a, then 5b with rolling rows, give the same bits on every thread
+// count and converge; the rows' own order reaches the same velocities at the tolerance.
+TEST(ColouredSweeps, SchemeBStagesGiveTheSameBitsOnEveryThreadCount) {
+  const test::SettledProblem pile =
+      test::settledPile(300, 400, NormalLaw::Vel, Scheme::CatchingUp, false);
+  const ContactProblem& p = pile.step.problem;
+  const int n = p.size(), nv = pile.scene.model.nv;
+  const int components = static_cast<int>(pile.scene.model.components.size());
+  ASSERT_GT(n, 2 * 128);  // more than one block of the colouring
+  SolverSettings solver;
+  solver.solver = StageSolver::Nlgs;
+  solver.acceleration = NlgsAcceleration::Nncg;
+  solver.parallel_rows = 16;
+  solver.tolerance = 1e-6;
+  struct Result {
+    VectorX v;
+    std::vector<double> lambda_N;
+    std::vector<Vector2> lambda_T;
+    SolverStats normal, friction;
+  };
+  auto solve = [&](int threads) {
+    SolverWorkspace ws;
+    ws.prepare(n, nv, components);
+    solver.threads = threads;
+    Result r{pile.step.v_free,
+             std::vector<double>(n, 0.0),
+             std::vector<Vector2>(n, Vector2::Zero()),
+             {},
+             {}};
+    std::vector<double> delta(n, 0.0);
+    std::vector<Vector2> R(n, Vector2::Zero());
+    r.normal = solveNormalStage(p, solver, r.lambda_N, r.v, ws);
+    r.friction = solveFrictionStage(p, solver, FrictionStageOptions{}, r.lambda_N, delta,
+                                    r.lambda_T, r.v, ws, p.rolling ? &R : nullptr);
+    return r;
+  };
+  const std::vector<int> counts = test::threadCounts();
+  const Result reference = solve(counts[0]);
+  EXPECT_EQ(reference.normal.status, SolverStatus::Converged);
+  EXPECT_EQ(reference.friction.status, SolverStatus::Converged);
+  for (std::size_t k = 1; k < counts.size(); ++k) {
+    const Result other = solve(counts[k]);
+    EXPECT_TRUE(other.v == reference.v) << counts[k] << " threads";
+    EXPECT_TRUE(other.lambda_N == reference.lambda_N) << counts[k] << " threads";
+    EXPECT_TRUE(other.lambda_T == reference.lambda_T) << counts[k] << " threads";
+  }
+  solver.parallel_rows = 1 << 30;
+  const Result uncoloured = solve(1);
+  const double scale = (reference.v - pile.step.v_free).norm();
+  EXPECT_LT((uncoloured.v - reference.v).norm(), 1e-5 * scale);
+  EXPECT_FALSE(uncoloured.v == reference.v);  // the coloured order is another order
+}
+
+// `auto` on a 3D problem whose rows all join free bodies is NLGS with NNCG (the same bits);
+// on one with rows on other bodies it is the convex solvers (MPRGP / APGD: the same bits).
+TEST(StageSolverAuto, FreeBodyRowsTakeNlgsWithNncgAndOthersTheConvexSolvers) {
+  const test::SettledProblem pile =
+      test::settledPile(300, 400, NormalLaw::Vel, Scheme::CatchingUp, false);
+  ContactProblem p = pile.step.problem;
+  ASSERT_EQ(p.direct_body_forms + static_cast<int>(p.spheres3d.size()), p.size());
+  auto solve = [&](const ContactProblem& problem, StageSolver solver,
+                   NlgsAcceleration acceleration) {
+    SolverSettings settings;
+    settings.solver = solver;
+    settings.acceleration = acceleration;
+    SolverWorkspace ws;
+    ws.prepare(problem.size(), pile.scene.model.nv,
+               static_cast<int>(pile.scene.model.components.size()));
+    std::vector<double> lambda_N(problem.size(), 0.0), delta(problem.size(), 0.0);
+    std::vector<Vector2> lambda_T(problem.size(), Vector2::Zero());
+    VectorX v = pile.step.v_free;
+    solveNormalStage(problem, settings, lambda_N, v, ws);
+    solveFrictionStage(problem, settings, FrictionStageOptions{}, lambda_N, delta, lambda_T, v, ws);
+    return v;
+  };
+  const VectorX automatic = solve(p, StageSolver::Auto, NlgsAcceleration::None);
+  EXPECT_TRUE(automatic == solve(p, StageSolver::Nlgs, NlgsAcceleration::Nncg));
+  EXPECT_FALSE(automatic == solve(p, StageSolver::Mprgp, NlgsAcceleration::None));
+  p.direct_body_forms -= 1;  // one row counted as on other bodies
+  EXPECT_TRUE(solve(p, StageSolver::Auto, NlgsAcceleration::None) ==
+              solve(p, StageSolver::Mprgp, NlgsAcceleration::None));
+}
+
 TEST(NncgAcceleration, OneSweepIsPlainGaussSeidel) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
