@@ -45,8 +45,9 @@ struct EnumNames<NlgsAcceleration> {
 // convex quadratic program it is (integrators/convex_stages.hpp): MPRGP on box sets (stage
 // 5a, 2D stage 5b), APGD when a block is a disc (3D stage 5b); Newton: active-set Newton steps
 // on a sparse Cholesky factorization for box sets (integrators/projected_newton.hpp), APGD on
-// discs. Auto, the default: Newton on 2D problems, MPRGP on 3D ones, the faster of the two on
-// the funnel, the powder bed and the slider-crank (docs/schemes.md, "Convex stage solvers").
+// discs. Auto, the default: Newton on 2D problems; on 3D ones NLGS with NNCG where every row
+// joins free bodies, else MPRGP / APGD, the fastest on the funnel, the powder bed and the
+// slider-crank (integrators/stage_solvers.cpp; docs/schemes.md, "Defaults and their status").
 // Scheme A's coupled Coulomb problem is not convex and takes NLGS only.
 enum class StageSolver { Nlgs, Mprgp, Newton, InteriorPoint, Auto };
 template <>
