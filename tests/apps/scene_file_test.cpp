@@ -162,6 +162,8 @@ TEST(SettingsFile, PowderBedFastSettingIsWhatTheDocsMeasured) {
   EXPECT_DOUBLE_EQ(s.coulomb.tolerance, 1e-2);
   EXPECT_EQ(s.coulomb.residual_check_interval, 5);
   EXPECT_DOUBLE_EQ(s.coulomb.relaxation, 0.9);
+  EXPECT_DOUBLE_EQ(s.normal_stage.tolerance, 1e-2);
+  EXPECT_DOUBLE_EQ(s.friction_stage.tolerance, 1e-2);
   // the scene's own solver choice survives: the entries set fields, not the whole section
   EXPECT_EQ(s.coulomb.acceleration, NlgsAcceleration::Nncg);
   EXPECT_EQ(file.spec.detection.margin_rule, MarginRule::Relative);
