@@ -109,15 +109,17 @@ SolverStats solveFrictionStageNlgs(const ContactProblem& p, const SolverSettings
   // are held at their stage-5a values
   prepareFrictionStage(p, options, lambda_N, threshold_impulse, v, ws);
   const FrictionRowRule rule{p, options, lambda_N};
-  std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
-  if (rule.needsProjection()) projectOnClosedNormalsByCg(p, settings, rule, v, ws);
-  const FrictionStageRows stage{
-      p, options, rule, ws, lambda_N, delta, lambda_T, R, settings.relaxation};
   bool any = false;
   for (int c = 0; c < p.size(); ++c)
     any = any || ws.threshold[c] > 0.0 || (hasRollingRow(p, R, c) && lambda_N[c] > 0.0);
-  warmStartFriction(stage, any, v);
   SolverStats total;
+  std::fill(ws.offset.begin(), ws.offset.end(), Vector2::Zero());
+  // the projection's products count as row visits, as in the convex solvers' stats
+  if (any && rule.needsProjection())
+    total.updates += projectOnClosedNormalsByCg(p, settings, rule, v, ws);
+  const FrictionStageRows stage{
+      p, options, rule, ws, lambda_N, delta, lambda_T, R, settings.relaxation};
+  warmStartFriction(stage, any, v);
   if (!any) return total;
   // packed 3D rows hold the rolling rows too: read so when R covers every row (compact
   // sphere rows from the generic arrays: the stage reads their W's blocks)
