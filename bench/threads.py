@@ -9,11 +9,12 @@ are shared the fraction is an upper bound: noise only lowers S.
 
   /usr/bin/python3 bench/threads.py [--threads 2] [--repeat 1] [--cases funnel_50,...]
       [--funnel-state F50K.csv] [--powder-state SETTLED.csv] [--wide-state SETTLED_X10.csv]
-      [--pile-state PILE_X12.csv] [--pile-copies 12]
+      [--pile-state PILE_X12.csv] [--pile-copies 12] [--set path=value ...]
 
 The cases that start from a saved state need it (docs/benchmarks.md, "Threads", gives the
 commands that make them); the others run as they are. On a machine with more cores, pass
---threads 4, 8, ... (one count per invocation, always against 1).
+--threads 4, 8, ... (one count per invocation, always against 1). Each --set goes to every run
+(e.g. --set scheme.normal_stage.solver=mprgp --set scheme.friction_stage.solver=mprgp).
 """
 import argparse
 import csv
@@ -60,9 +61,10 @@ def cases(args):
     return out
 
 
-def run(sweep, argv, out, threads):
+def run(sweep, argv, out, threads, settings):
     subprocess.run([sweep, "run", argv[0], "--out", out, "--quiet", "--threads", str(threads),
-                    "--set", "output.vtk_interval=0", *argv[1:]], check=True,
+                    "--set", "output.vtk_interval=0", *argv[1:],
+                    *[item for setting in settings for item in ("--set", setting)]], check=True,
                    stdout=subprocess.DEVNULL)
     with open(os.path.join(out, "summary.json")) as f:
         wall = json.load(f)["wall_seconds"]
@@ -86,6 +88,8 @@ def main():
     parser.add_argument("--pile-state")
     parser.add_argument("--pile-copies", type=int, default=12,
                         help="copies of the reduced bed's heap in --pile-state (12: 9 600 spheres)")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        help="a scene setting for every run")
     args = parser.parse_args()
     chosen = cases(args)
     if args.cases:
@@ -102,7 +106,7 @@ def main():
         for k in range(args.repeat):
             for threads in (1, n):
                 out = os.path.join(scratch, f"{name.replace(' ', '_')}_{threads}")
-                wall, parts = run(args.sweep, argv, out, threads)
+                wall, parts = run(args.sweep, argv, out, threads, args.set)
                 best[threads] = min(best[threads], wall)
                 split.setdefault(threads, parts)
                 least[threads] = [min(a, b) for a, b in zip(least.get(threads, parts), parts)]
