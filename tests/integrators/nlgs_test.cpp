@@ -1105,6 +1105,30 @@ TEST(StageSolverAuto, FreeBodyRowsTakeNlgsWithNncgAndOthersTheConvexSolvers) {
               solve(p, StageSolver::Mprgp, NlgsAcceleration::None));
 }
 
+// Iteration counts, not times: `auto` on a settled 3D pile of 300 spheres (NLGS with NNCG),
+// both stages from a cold start to the default tolerance (1e-6), against the counts measured
+// (stage 5a 40, stage 5b 80 sweeps) with a margin of a third. A change that slows the sweeps'
+// convergence fails it: plain sweeps without NNCG take 60 and 1 670.
+TEST(StageSolverAuto, SweepCountsOnASettled3dPile) {
+  const test::SettledProblem pile =
+      test::settledPile(300, 400, NormalLaw::Vel, Scheme::CatchingUp, false);
+  const ContactProblem& p = pile.step.problem;
+  SolverSettings settings;
+  settings.solver = StageSolver::Auto;
+  SolverWorkspace ws;
+  ws.prepare(p.size(), pile.scene.model.nv, static_cast<int>(pile.scene.model.components.size()));
+  std::vector<double> lambda_N(p.size(), 0.0), delta(p.size(), 0.0);
+  std::vector<Vector2> lambda_T(p.size(), Vector2::Zero()), R(p.size(), Vector2::Zero());
+  VectorX v = pile.step.v_free;
+  const SolverStats normal = solveNormalStage(p, settings, lambda_N, v, ws);
+  const SolverStats friction = solveFrictionStage(p, settings, FrictionStageOptions{}, lambda_N,
+                                                  delta, lambda_T, v, ws, p.rolling ? &R : nullptr);
+  EXPECT_EQ(normal.status, SolverStatus::Converged);
+  EXPECT_EQ(friction.status, SolverStatus::Converged);
+  EXPECT_LE(normal.iterations, 53);
+  EXPECT_LE(friction.iterations, 107);
+}
+
 TEST(NncgAcceleration, OneSweepIsPlainGaussSeidel) {
   const test::SettledProblem heap = test::settledPowderHeap(NormalLaw::Vel);
   const ContactProblem& p = heap.step.problem;
