@@ -6,7 +6,6 @@
 // scheme, the solver or the detection moves grains by far more (contacts form from step 40).
 #include <gtest/gtest.h>
 
-
 #include "apps/sweep/scene_file.hpp"
 #include "golden.hpp"
 
