@@ -53,7 +53,9 @@ def cases(args):
             out[f"pile_{800 * args.pile_copies} {scheme}"] = [
                 REDUCED, "--scheme", scheme, "--set",
                 f"generators[0].copies_across={args.pile_copies}", "--initial-state",
-                args.pile_state, "--t-end", "0.0122", "--set", "scheme.coulomb.tolerance=1e-6"]
+                args.pile_state, "--t-end", "0.0122", "--set", "scheme.coulomb.tolerance=1e-6",
+                "--set", "scheme.normal_stage.tolerance=1e-6",
+                "--set", "scheme.friction_stage.tolerance=1e-6"]
     if args.wide_state:
         out["wide bed moreau-jean"] = [POWDER, "--initial-state", args.wide_state,
                                        "--set-file", FAST,
