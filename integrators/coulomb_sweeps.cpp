@@ -2,7 +2,6 @@
 // coulombUpdate (integrators/contact_laws.hpp) over each island's rows.
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 #include "integrators/contact_laws.hpp"
 #include "integrators/nlgs.hpp"
@@ -54,11 +53,10 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
   const RowReader rows(
       p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
-  const bool coloured = sweepsInColours(p, settings, rows.packed(), ws, n);
+  const bool coloured = colourForThreads(p, settings, rows.packed(), ws, n);
   // the warm start of the island's rows (the other islands move other velocities): a
   // coloured island's chunk by chunk, as its sweeps go
   if (coloured) {
-    colourIsland(p, ws, n);
     forEachColourChunk(ws, settings.threads, [&](int chunk) {
       const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
       warmStart(p, P, R, ws.order.data() + first, last - first, v);
@@ -66,16 +64,12 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
   } else {
     warmStart(p, P, R, ws.order.data(), n, v);
   }
-  std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg)
-    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(P), impulses(R)}, v, ws, n,
-                     coloured ? settings.threads : 1);
   const CoulombSweep sweep{rows, settings, P, R, ws.order.data()};
   // every packed form: the residual reads what the generic arrays hold, to the bit
   const RowReader residual_rows(
       p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
   return sweepIsland(
-      settings, ws, n, coloured, momentum ? &*momentum : nullptr, v,
+      p, settings, ws, n, coloured, {impulses(P), impulses(R)}, v,
       [&](int first, int last, double& change2, double& size2, int& failures) {
         sweep(first, last, v, change2, size2, failures);
       },

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 #include "integrators/contact_laws.hpp"
 #include "integrators/convex_stages.hpp"
@@ -70,17 +69,11 @@ void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v) {
 SolverStats frictionIsland(const FrictionStageRows& stage, const RowReader& rows,
                            const SolverSettings& settings, VectorX& v, SolverWorkspace& ws,
                            int count) {
-  const bool coloured = sweepsInColours(stage.p, settings, rows.packed(), ws, count);
-  if (coloured) colourIsland(stage.p, ws, count);
-  std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg)
-    momentum.emplace(stage.p,
-                     std::initializer_list<ImpulseArray>{impulses(&stage.lambda_T),
-                                                         impulses(stage.delta), impulses(stage.R)},
-                     v, ws, count, coloured ? settings.threads : 1);
+  const bool coloured = colourForThreads(stage.p, settings, rows.packed(), ws, count);
   const int* order = ws.order.data();
   SolverStats stats = sweepIsland(
-      settings, ws, count, coloured, momentum ? &*momentum : nullptr, v,
+      stage.p, settings, ws, count, coloured,
+      {impulses(&stage.lambda_T), impulses(stage.delta), impulses(stage.R)}, v,
       [&](int first, int last, double& change2, double& size2, int&) {
         rows.forEach(
             order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {

@@ -3,7 +3,6 @@
 // norm, s_c = sqrt(W_NN,c); Lambda = s lambda.
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 #include "integrators/contact_laws.hpp"
 #include "integrators/nlgs.hpp"
@@ -19,15 +18,10 @@ SolverStats normalIsland(const ContactProblem& p, const SolverSettings& settings
   // packed rows where the problem has them: their 1 / W_NN is the assembly's, so the sweeps
   // give the entry rows' bits
   const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d);
-  const bool coloured = sweepsInColours(p, settings, rows.packed(), ws, n);
-  if (coloured) colourIsland(p, ws, n);
-  std::optional<NncgMomentum> momentum;
-  if (settings.acceleration == NlgsAcceleration::Nncg)
-    momentum.emplace(p, std::initializer_list<ImpulseArray>{impulses(lambda_N)}, v, ws, n,
-                     coloured ? settings.threads : 1);
+  const bool coloured = colourForThreads(p, settings, rows.packed(), ws, n);
   const int* order = ws.order.data();
   return sweepIsland(
-      settings, ws, n, coloured, momentum ? &*momentum : nullptr, v,
+      p, settings, ws, n, coloured, {impulses(lambda_N)}, v,
       [&](int first, int last, double& change2, double& size2, int&) {
         rows.forEach(
             order, first, last, [&](int k, const auto& row) __attribute__((always_inline)) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <limits>
+#include <optional>
 
 #include "framework/parallel.hpp"
 #include "integrators/contact_problem.hpp"
@@ -324,25 +325,35 @@ class NncgMomentum {
   bool stopped_ = false;
 };
 
-// Whether an island of n rows is swept in colour order (colourIsland) on settings.threads
-// threads: large enough (settings.parallel_rows), unshuffled, on packed rows whose components
-// are known. The colour order is taken for every thread count, so the bits do not depend on it.
-inline bool sweepsInColours(const ContactProblem& p, const SolverSettings& settings,
-                            bool packed_rows, const SolverWorkspace& ws, int n) {
-  return n >= settings.parallel_rows && !settings.shuffle && packed_rows &&
-         p.row_components.size() == static_cast<std::size_t>(p.size()) &&
-         ws.row_colour.size() >= static_cast<std::size_t>(n);
+// Colours the island ws.order[0, n) (colourIsland) where it is swept in colour order on
+// settings.threads threads: large enough (settings.parallel_rows), unshuffled, on packed rows
+// whose components are known; returns whether it did. The colour order is taken for every
+// thread count, so the bits do not depend on it.
+inline bool colourForThreads(const ContactProblem& p, const SolverSettings& settings,
+                             bool packed_rows, SolverWorkspace& ws, int n) {
+  if (n < settings.parallel_rows || settings.shuffle || !packed_rows ||
+      p.row_components.size() != static_cast<std::size_t>(p.size()) ||
+      ws.row_colour.size() < static_cast<std::size_t>(n))
+    return false;
+  colourIsland(p, ws, n);
+  return true;
 }
 
 // The sweeps of one island, ws.order[0, n), to the tolerance or the cap: the loop the three
-// NLGS solvers share. sweep(first, last, change2, size2, failures) updates the rows
-// ws.order[first, last) once each, in order; residual(first, last, f2, scale2) adds their
-// residual's terms. `coloured` (sweepsInColours, after colourIsland): the chunks of one colour
-// on settings.threads threads, every sum taken per chunk and added in chunk order. `momentum`:
-// NNCG's step after each sweep but the last, so that the impulses returned are a sweep's.
+// NLGS solvers share, from their warm start in v and momentum_impulses.
+// sweep(first, last, change2, size2, failures) updates the rows ws.order[first, last) once
+// each, in order; residual(first, last, f2, scale2) adds their residual's terms. `coloured`
+// (colourForThreads): the chunks of one colour on settings.threads threads, every sum taken
+// per chunk and added in chunk order. With NNCG (settings.acceleration) its momentum on
+// momentum_impulses after each sweep but the last, so that the impulses returned are a sweep's.
 template <class Sweep, class Residual>
-SolverStats sweepIsland(const SolverSettings& settings, SolverWorkspace& ws, int n, bool coloured,
-                        NncgMomentum* momentum, VectorX& v, Sweep&& sweep, Residual&& residual) {
+SolverStats sweepIsland(const ContactProblem& p, const SolverSettings& settings,
+                        SolverWorkspace& ws, int n, bool coloured,
+                        std::initializer_list<ImpulseArray> momentum_impulses, VectorX& v,
+                        Sweep&& sweep, Residual&& residual) {
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg)
+    momentum.emplace(p, momentum_impulses, v, ws, n, coloured ? settings.threads : 1);
   const int chunks = coloured ? ws.colour_chunk[kColours + 1] : 0;
   auto residualNow = [&] {
     double f2 = 0.0, scale2 = 0.0;
