@@ -319,7 +319,7 @@ void detectContacts(const Model& model, const Data& data, const ContactModel& cm
 
   // broadphase
   if (cmodel.path == DetectionPath::Analytic)
-    broadphaseGrid(cmodel, cdata, margins, threads);
+    broadphaseGrid(model, cmodel, cdata, margins, t, threads);
   else
     broadphaseFcl(cmodel, cdata, margins);
   sortPairs(cmodel.size(), cdata, threads);

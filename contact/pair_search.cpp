@@ -9,8 +9,8 @@
 
 namespace sweep {
 
-void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const DetectionMargins& margins,
-                    int threads) {
+void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData& cdata,
+                    const DetectionMargins& margins, double t, int threads) {
   const double margin = margins.balls;  // the grid holds balls only
   const int n = static_cast<int>(cdata.particles.size());
   double largest = 0.0;
@@ -61,8 +61,15 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const Detect
   }
   cdata.pairs.resize(kept);
   // walls, blades, planes: against the particles their box can reach, and each other
+  // a driven body past its removal time (a pulled gate) meets nothing: the narrowphase would
+  // drop each of its pairs
+  auto removed = [&](int g) {
+    const BodyRef& body = cmodel.traits[g].body_ref;
+    return body.kind == BodyRef::Kind::Driven && !model.driven_bodies[body.index].presentAt(t);
+  };
   for (std::size_t l = 0; l < cdata.large.size(); ++l) {
     const int g = cdata.large[l];
+    if (removed(g)) continue;
     const Shape& shape = cmodel.geometries[g].shape;
     auto add = [&](int k) {
       if (k >= n) return;  // images meet only grains
@@ -86,8 +93,8 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const Detect
       const Vector3 center = cdata.geometry_pose[g].translation;
       // a large ball meets the particles with the balls' margin, which a check of the end
       // velocities may have raised above the other one
-      const Vector3 half = Vector3::Constant(boundingRadius(shape) + largest +
-                                             std::max(margins.balls, margins.others));
+      const Vector3 half = boundingHalfWidths(shape, cdata.geometry_pose[g].rotation) +
+                           Vector3::Constant(largest + std::max(margins.balls, margins.others));
       cdata.grid.query(center - half, center + half, add);
     }
     // the same pairs in the same order as over every m > l, skipping frozen-frozen ones
@@ -99,7 +106,8 @@ void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const Detect
                : static_cast<std::size_t>(cdata.large_moving.end() - first_moving);
     for (std::size_t k = 0; k < count; ++k) {
       const int other = cdata.large[moving ? l + 1 + k : first_moving[k]];
-      if (cmodel.mayCollide(g, other)) cdata.pairs.push_back(encodePair(g, other));
+      if (cmodel.mayCollide(g, other) && !removed(other))
+        cdata.pairs.push_back(encodePair(g, other));
     }
   }
 }

@@ -43,8 +43,9 @@ inline std::size_t runBegin(std::size_t count, int r, int runs) {
 // The balls of the grid path (ContactData::particles) by a uniform grid, with the periodic
 // images of those near a periodic boundary, and every other geometry against them and each other
 // by its bounds.
-void broadphaseGrid(const ContactModel& cmodel, ContactData& cdata, const DetectionMargins& margins,
-                    int threads);
+// Driven bodies past their removal time at t are left out.
+void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData& cdata,
+                    const DetectionMargins& margins, double t, int threads);
 // Every pair by FCL's dynamic AABB tree.
 void broadphaseFcl(const ContactModel& cmodel, ContactData& cdata, const DetectionMargins& margins);
 // cdata.pairs sorted by (a, b, image): the same order on any thread count.

@@ -453,6 +453,26 @@ void validateShape(const Shape& shape, const std::string& owner) {
   }
 }
 
+Vector3 boundingHalfWidths(const Shape& shape, const Matrix3& rotation) {
+  // capsules and cylinders lie along their local z axis
+  const Vector3 axis = rotation.col(2).cwiseAbs();
+  switch (shape.type) {
+    case ShapeType::Sphere:
+    case ShapeType::Disk:
+      return Vector3::Constant(shape.radius);
+    case ShapeType::Box:  // the corner furthest along each world axis
+      return rotation.cwiseAbs() * shape.half_extents;
+    case ShapeType::Capsule:  // the segment's ends, rounded
+      return 0.5 * shape.length * axis + Vector3::Constant(shape.radius);
+    case ShapeType::Cylinder: {  // the ends' rims: a circle of radius r reaches r sqrt(1 - a_i^2)
+      const Vector3 across = (Vector3::Ones() - axis.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+      return 0.5 * shape.length * axis + shape.radius * across;
+    }
+    default:
+      return Vector3::Constant(boundingRadius(shape));
+  }
+}
+
 double boundingRadius(const Shape& shape) {
   switch (shape.type) {
     case ShapeType::Sphere:

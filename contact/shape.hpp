@@ -115,6 +115,11 @@ void validateShape(const Shape& shape, const std::string& owner);
 
 // Radius of a ball about the local origin containing the shape; +inf for half-spaces.
 double boundingRadius(const Shape& shape);
+// Half-widths of a box along the world axes, about the local origin, that contains the shape
+// turned by `rotation`: exact for balls, boxes, capsules and cylinders (a long blade's is thin
+// across, where its bounding ball's cube held the whole bed), the bounding ball's cube for the
+// others; +inf for half-spaces.
+Vector3 boundingHalfWidths(const Shape& shape, const Matrix3& rotation);
 inline bool isUnbounded(const Shape& shape) {
   return shape.type == ShapeType::HalfSpace || shape.type == ShapeType::HalfPlane;
 }

@@ -274,6 +274,53 @@ TEST(Detection, Deterministic) {
   }
 }
 
+// A blade spanning a bed meets the grains along its face: the broadphase queries the grid with
+// the blade's box along the world axes, not with its bounding ball's cube, which held every
+// grain of the bed (a powder bed's blade, gate and fence: three runs of every grain a step).
+TEST(Detection, ALongBoxMeetsOnlyTheGrainsNearItsFace) {
+  ModelBuilder builder("bed");
+  const int nx = 20, ny = 5, nz = 40, count = nx * ny * nz;
+  for (int i = 0; i < count; ++i)
+    addFreeBody(builder, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.4));
+  builder.setGravity(Vector3::Zero());
+  const Model model = builder.build();
+  VectorX q = model.neutralConfiguration();
+  for (int i = 0; i < count; ++i)
+    test::placeBody(model, q, i, Vector3(i % nx, (i / nx) % ny, i / (nx * ny)),
+                    Quaternion::Identity());
+  auto detect = [&](bool with_blade, int threads) {
+    ContactModelBuilder contacts(model);
+    for (int i = 0; i < count; ++i)
+      contacts.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                           Shape::sphere(0.4));
+    if (with_blade) {
+      // 0.01 from the first column's grains, turned a little about x
+      Pose blade = Pose::identity();
+      blade.translation = Vector3(-0.41 - 0.1, 2.0, 19.5);
+      blade.rotation = Matrix3(Eigen::AngleAxisd(1e-4, Vector3::UnitX()));
+      contacts.addGeometry("blade", BodyRef::world(), blade, Shape::box(Vector3(0.2, 6.0, 42.0)));
+    }
+    const ContactModel cmodel = contacts.build();
+    EXPECT_EQ(cmodel.path, DetectionPath::Analytic);
+    ContactData cdata(model, cmodel);
+    Data data(model);
+    data.threads = threads;
+    forwardKinematics(model, data, q);
+    detectContacts(model, data, cmodel, cdata, 0.0, DetectionMargins::uniform(0.02), threads);
+    return cdata;
+  };
+  const ContactData bare = detect(false, 1);
+  for (int threads : {1, 2}) {
+    const ContactData bed = detect(true, threads);
+    int blade_contacts = 0;
+    for (const Contact& c : bed.contacts) blade_contacts += c.key.geometry_b == count ? 1 : 0;
+    EXPECT_EQ(blade_contacts, ny * nz) << threads;  // the first column, every grain of it
+    // the blade's pairs: the grains of the grid cells its box reaches, at most two columns of
+    // them, not the bed's 4 000
+    EXPECT_LE(bed.stats.broadphase_pairs - bare.stats.broadphase_pairs, 2 * ny * nz) << threads;
+  }
+}
+
 // The grid path on threads (broadphase, pair sort, narrowphase, matching): the same list, bit
 // for bit, for 1 to 4 threads. 12 000 balls on a jittered lattice (over 8192 pairs: the
 // threaded path) above a floor and beside a wall (runs of thousands of pairs), detected

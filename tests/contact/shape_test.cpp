@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
+
 #include "contact/contact_model.hpp"
 #include "contact/convex_hull.hpp"
 #include "contact/mesh_io.hpp"
@@ -291,6 +294,60 @@ TEST(Materials, LawsAreValidated) {
   EXPECT_EQ(table.law(steel, steel).friction, 0.0);
   EXPECT_EQ(table.id("steel"), steel);
   EXPECT_THROW(table.id("wood"), InputError);
+}
+
+// The broadphase's box about a large shape (contact/pair_search.cpp): it holds every point of
+// the shape, and is tight, at any rotation. A long blade's bounding ball's cube held the whole
+// powder bed.
+TEST(BoundingHalfWidths, HoldEachShapeAndAreTight) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  auto randomUnit = [&] {
+    Vector3 u;
+    do u = Vector3(unit(rng), unit(rng), unit(rng));
+    while (u.norm() < 0.1 || u.norm() > 1.0);
+    return u.normalized();
+  };
+  const double r = 0.1, L = 2.0;
+  const std::vector<Shape> shapes = {Shape::box(Vector3(0.05, 0.6, 4.0)), Shape::capsule(r, L),
+                                     Shape::cylinder(r, L), Shape::sphere(r)};
+  for (int turn = 0; turn < 20; ++turn) {
+    const Matrix3 R =
+        turn == 0 ? Matrix3::Identity() : Matrix3(Eigen::AngleAxisd(3.0 * unit(rng), randomUnit()));
+    for (const Shape& shape : shapes) {
+      const Vector3 half = boundingHalfWidths(shape, R);
+      // points of the shape, in its frame: a box's corners, a capsule's rounded ends, a
+      // cylinder's rims, a ball's surface
+      std::vector<Vector3> points;
+      for (int k = 0; k < 20000; ++k) {
+        const Vector3 u = randomUnit();
+        const double angle = 2.0 * M_PI * k / 20000.0, end = (k % 2 ? 0.5 : -0.5) * L;
+        switch (shape.type) {
+          case ShapeType::Box:
+            if (k < 8)
+              points.push_back(shape.half_extents.cwiseProduct(
+                  Vector3(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0)));
+            break;
+          case ShapeType::Capsule:
+            points.push_back(Vector3(0.0, 0.0, end) + r * u);
+            break;
+          case ShapeType::Cylinder:
+            points.push_back(Vector3(r * std::cos(angle), r * std::sin(angle), end));
+            break;
+          default:
+            points.push_back(r * u);
+        }
+      }
+      Vector3 reach = Vector3::Zero();
+      for (const Vector3& p : points) reach = reach.cwiseMax((R * p).cwiseAbs());
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_LE(reach[i], half[i] * (1.0 + 1e-12)) << "turn " << turn << ", axis " << i;
+        EXPECT_GE(reach[i], 0.995 * half[i]) << "turn " << turn << ", axis " << i;
+      }
+      // never wider than the bounding ball's cube it replaces
+      EXPECT_LE(half.maxCoeff(), boundingRadius(shape) * (1.0 + 1e-12));
+    }
+  }
 }
 
 }  // namespace
