@@ -84,8 +84,9 @@ void GridBroadphase::build(const std::vector<Vector3>& centers, const std::vecto
 void GridBroadphase::findPairs(double margin, std::vector<std::pair<int, int>>& pairs, int threads,
                                std::vector<std::vector<std::pair<int, int>>>* runs) const {
   const int n = static_cast<int>(sorted_.size());
-  // a particle's scan costs about 50 ns: fewer than kParallelParticles per thread stay on one
-  constexpr int kParallelParticles = 4096;
+  // a particle's scan costs 50-100 ns, a parallel region about 5 us: from kParallelParticles a
+  // thread the runs pay (the 3 500-sphere powder bed's detection 1.19x faster on two threads)
+  constexpr int kParallelParticles = 1024;
   const int count = runs == nullptr ? 1 : std::max(1, std::min(threads, n / kParallelParticles));
   if (count == 1) {
     if (dense_)
