@@ -225,12 +225,8 @@ void narrowphasePair(const Model& model, const ContactModel& cmodel, const Conta
                      Contacts& out, std::vector<ContactPoint>& points, int& broadphase_pairs) {
   // named copies, not structured bindings: C++17 lambdas cannot capture those (clang)
   const int a = pair.first, b = pairGeometry(pair.second), image = pairImage(pair.second);
-  // a driven body past its removal time (a pulled shutter) meets nothing
-  auto removed = [&](int g) {
-    const BodyRef& body = cmodel.traits[g].body_ref;
-    return body.kind == BodyRef::Kind::Driven && !model.driven_bodies[body.index].presentAt(t);
-  };
-  if (!cmodel.mayCollide(a, b) || removed(a) || removed(b)) return;
+  if (!cmodel.mayCollide(a, b) || removedAt(model, cmodel, a, t) || removedAt(model, cmodel, b, t))
+    return;
   const Vector3 shift = imageShift(cmodel.settings.periodic, image);
   ++broadphase_pairs;
   const ContactModel::Traits& ta = cmodel.traits[a];

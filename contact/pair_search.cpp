@@ -61,12 +61,8 @@ void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData&
   }
   cdata.pairs.resize(kept);
   // walls, blades, planes: against the particles their box can reach, and each other
-  // a driven body past its removal time (a pulled gate) meets nothing: the narrowphase would
-  // drop each of its pairs
-  auto removed = [&](int g) {
-    const BodyRef& body = cmodel.traits[g].body_ref;
-    return body.kind == BodyRef::Kind::Driven && !model.driven_bodies[body.index].presentAt(t);
-  };
+  // a driven body past its removal time meets nothing: the narrowphase would drop its pairs
+  auto removed = [&](int g) { return removedAt(model, cmodel, g, t); };
   for (std::size_t l = 0; l < cdata.large.size(); ++l) {
     const int g = cdata.large[l];
     if (removed(g)) continue;

@@ -35,6 +35,13 @@ inline Vector3 imageShift(const Periodicity& periodic, int image) {
   return shift;
 }
 
+// Whether geometry g belongs to a driven body past its removal time at t (a pulled gate or
+// shutter): it then meets nothing.
+inline bool removedAt(const Model& model, const ContactModel& cmodel, int g, double t) {
+  const BodyRef& body = cmodel.traits[g].body_ref;
+  return body.kind == BodyRef::Kind::Driven && !model.driven_bodies[body.index].presentAt(t);
+}
+
 // The first of `count` items in run r of `runs` (runs of equal length, in order).
 inline std::size_t runBegin(std::size_t count, int r, int runs) {
   return count * static_cast<std::size_t>(r) / static_cast<std::size_t>(runs);
