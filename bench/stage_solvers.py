@@ -24,6 +24,8 @@ CASES = {
                    ["--set", "generators[0].count=500",
                     "--set", "generators[0].orifice=0.008032185256827685"]),
     "slider_crank": ("examples/archetypes/slider_crank.yaml", []),
+    # 80 000 touching disks at rest in a box, 20 steps: the whole pile closes in the first step
+    "pile_2d": ("bench/scenes/touching_pile_2d.yaml", []),
     # the reduced powder bed's heap settling (800 spheres, the first 20 ms), both stages at the
     # solvers' default tolerance (the scene's own is 1e-3)
     "powder_heap": ("examples/powder_bed/powder_bed_reduced.yaml",

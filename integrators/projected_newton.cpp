@@ -271,15 +271,18 @@ class NewtonSolve {
     each([&](long i) { to[i] = from[i]; });
   }
 
-  // sides from x and its gradient: held at the bound where x - g leaves the box; a disc slides
-  // where x - g leaves its circle, its unit normal y / |y| then in ws.frame
+  // sides from x and its gradient: held at the bound where x - g leaves the box, strictly: a
+  // row on its bound with zero gradient (a grain resting on one that falls as fast) stays free,
+  // else a pile at rest closes one layer per step. A disc slides where x - g leaves its circle,
+  // its unit normal y / |y| then in ws.frame
   void sidesFrom() {
     forEachIndex(set_.blocks(), threads_, [&](long b) {
       const int i = set_.first[b];
       if (set_.size[b] == 1 || effectiveSet(set_, static_cast<int>(b)) == BlockSet::Fixed) {
         for (int k = i; k < i + set_.size[b]; ++k) {
           const double y = x_[k] - ws_.g[k];
-          ws_.side[k] = y <= ws_.lower[k] ? kLower : y >= ws_.upper[k] ? kUpper : kFree;
+          const bool fixed = ws_.lower[k] == ws_.upper[k];
+          ws_.side[k] = y < ws_.lower[k] || fixed ? kLower : y > ws_.upper[k] ? kUpper : kFree;
         }
         return;
       }

@@ -16,9 +16,10 @@
 //   - a semismooth Newton step on the natural map F(x) = x - P(x - g(x)), g = A x + b: the
 //     primal-dual active set step (Hintermueller, Ito & Kunisch 2003, "The primal-dual
 //     active set strategy as a semismooth Newton method", SIAM J. Optim. 13). Each variable
-//     is held at a bound where x - g leaves the box, the free ones solve
-//     A_FF x_F = -b_F - A_FH x_H exactly, and the step towards that point is halved until
-//     |F| falls (Armijo). Undamped, the number of steps follows the face changes, not the
+//     is held at a bound where x - g leaves the box strictly (one on its bound with zero
+//     gradient stays free: a pile at rest closes in one face, not one layer a step), the free
+//     ones solve A_FF x_F = -b_F - A_FH x_H exactly, and the step towards that point is halved
+//     until |F| falls (Armijo). Undamped, the number of steps follows the face changes, not the
 //     conditioning of A, so it does not grow with the depth of a pile where CG's grows like
 //     sqrt(cond A). Redundant rows with GLOBAL tangents leave faces whose program is
 //     unbounded (a self-equilibrated set of impulses that does work on the tangents); there

@@ -316,6 +316,40 @@ TEST(ProjectedNewton, RandomBoxProgramsMatchAnIndependentSolve) {
   std::printf("random box programs to 1e-12: at most %d projected Newton steps\n", worst);
 }
 
+// A column of touching grains at rest on a floor, all falling at the same speed: only the floor
+// row approaches (b < 0), every row above it sits on its bound with zero gradient. The face
+// taken must free those rows (x - g = 0 stays in the box): held, they would be freed one grain a
+// step, as many steps as the column is tall. The answer: each row carries the grains above it.
+TEST(ProjectedNewton, AColumnAtRestClosesInOneFaceNotOneRowAStep) {
+  const int grains = 60;
+  const double fall = 9.81e-4;                // g h
+  MatrixX B = MatrixX::Zero(grains, grains);  // row k: grain k's velocity; column j: contact j
+  B(0, 0) = 1.0;                              // the floor pushes grain 0 up
+  for (int j = 1; j < grains; ++j) {          // contact j pushes grain j up, grain j - 1 down
+    B(j, j) = 1.0;
+    B(j - 1, j) = -1.0;
+  }
+  const VectorX v_free = VectorX::Constant(grains, -fall);
+  const VectorX b = B.transpose() * v_free;
+  const DenseProgram program(B, b);
+  SeparableSet set;
+  for (int j = 0; j < grains; ++j) set.add(BlockSet::NonNegative, 1);
+  MprgpSettings settings;
+  settings.tolerance = 1e-12;
+  std::vector<double> x(grains, 0.0);
+  VectorX v = VectorX::Zero(grains);
+  ProjectedNewtonWorkspace ws;
+  MprgpWorkspace fallback;
+  const MprgpStats stats = solveProjectedNewton(program, set, settings, x, v, ws, fallback);
+  ASSERT_TRUE(stats.converged) << stats.residual;
+  EXPECT_EQ(stats.newton_steps, stats.iterations) << "handed over";
+  // the proximal term's contraction on the column's softest mode sets the count, not its height
+  EXPECT_LE(stats.newton_steps, grains / 4);
+  for (int j = 0; j < grains; ++j)
+    EXPECT_NEAR(x[j], (grains - j) * fall, 1e-7 * grains * fall) << "contact " << j;
+  std::printf("a column of %d grains at rest: %d Newton steps\n", grains, stats.newton_steps);
+}
+
 // the discs' radius in the threads test: some stick, some slide
 constexpr double kDiscRadius = 1.0;
 
