@@ -128,11 +128,17 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
   if (m < kParallelItems) threads = 1;
   threads = std::max(threads, 1);
   if (static_cast<int>(ws.thread_touched.size()) < threads) ws.thread_touched.resize(threads);
+  if (static_cast<int>(ws.entry_scratch.size()) < threads) {
+    ws.entry_scratch.resize(threads);
+    for (ContactProblemWorkspace::EntryRowScratch& scratch : ws.entry_scratch)
+      scratch.minv_slot.resize(model.nv, -1);
+  }
   classifyContacts(deferred, threads);
   const int rows = numberRows();
   parallelFor(rows, threads, [&](int pc) {
     const int c = p.contact[pc];
-    std::vector<int>& touched = ws.thread_touched[omp_get_thread_num()];
+    const int thread = omp_get_thread_num();
+    std::vector<int>& touched = ws.thread_touched[thread];
     switch (ws.row_kind[c]) {
       case kSphereRow:
         sphereRow(pc, cdata.contacts[c], touched);
@@ -141,7 +147,8 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
         bodyFormRow(pc, cdata.contacts[c], touched);
         break;
       case kDiagonalRow:
-        contactEntryRow(pc, c, touched);
+      case kEntryRow:
+        contactEntryRow(pc, c, touched, ws.entry_scratch[thread]);
         break;
       default:
         break;
@@ -149,7 +156,7 @@ void ProblemAssembly::writeContactRows(const std::vector<char>* deferred, int th
   });
   for (int pc = 0; pc < rows; ++pc) {
     if (ws.row_kind[p.contact[pc]] != kSerialRow) continue;
-    contactEntryRow(pc, p.contact[pc], ws.touched);
+    contactEntryRow(pc, p.contact[pc], ws.touched, ws.entry_scratch[0]);
     joinComponents(ws.touched);
   }
 }
@@ -173,7 +180,9 @@ void ProblemAssembly::classifyContacts(const std::vector<char>* deferred, int th
       std::vector<int>& touched = ws.thread_touched[omp_get_thread_num()];
       const bool diagonal_row =
           entryComponents(&J.dof[J.begin[c]], J.begin[c + 1] - J.begin[c], touched);
-      kind = diagonal_row && touched.size() <= 2 ? kDiagonalRow : kSerialRow;
+      bool small = touched.size() <= 2;
+      for (int comp : touched) small = small && model.components[comp].nv <= 6;
+      kind = !small ? kSerialRow : diagonal_row ? kDiagonalRow : kEntryRow;
       if (!diagonal_row) minv_entries = minvEntries(touched);
     }
     ws.row_kind[c] = kind;
@@ -192,7 +201,8 @@ int ProblemAssembly::numberRows() {
     p.contact[pc] = c;
     p.row_sphere[pc] = kind == kSphereRow ? spheres++ : -1;
     p.row_body_form[pc] = kind == kBodyFormRow ? body_forms++ : -1;
-    if (kind == kDiagonalRow || kind == kSerialRow) entries += J.begin[c + 1] - J.begin[c];
+    if (kind == kDiagonalRow || kind == kEntryRow || kind == kSerialRow)
+      entries += J.begin[c + 1] - J.begin[c];
     minv_entries += ws.row_minv_entries[c];
     ++pc;
     p.begin[pc] = entries;

@@ -13,7 +13,9 @@
 namespace sweep {
 
 struct ProblemAssembly {
-  enum RowKind : char { kNoRow, kSphereRow, kBodyFormRow, kDiagonalRow, kSerialRow };
+  // kEntryRow: a general row over at most two components of at most 6 velocities each, written
+  // on threads; kSerialRow: the others (a tree's rows), written on one thread
+  enum RowKind : char { kNoRow, kSphereRow, kBodyFormRow, kDiagonalRow, kEntryRow, kSerialRow };
 
   const Model& model;
   const Data& data;
@@ -96,10 +98,12 @@ struct ProblemAssembly {
 
   // Row pc from its H entries (written at [begin[pc], begin[pc + 1])): M^-1 H at
   // [minv_begin[pc], minv_begin[pc + 1]) unless the row is diagonal, W_cc, then the rest.
-  // A general row uses the per-component and per-dof scratch of ws: one thread only.
+  // A general row uses `scratch` (its thread's), and over a component of more than 6
+  // velocities the per-component scratch of ws: one thread only.
   void finishEntryRow(int pc, const std::vector<int>& touched, bool diagonal_row,
                       const Vector3& known, double gap, double mu, double e,
-                      const Vector2& known_spin, double rolling_bound);
+                      const Vector2& known_spin, double rolling_bound,
+                      ContactProblemWorkspace::EntryRowScratch& scratch);
 
   // A row over free particles, written straight in body form from the contact's frame and
   // points (rowInBodyForm): the Jacobian's columns of a free body with the arithmetic of
@@ -113,7 +117,8 @@ struct ProblemAssembly {
   void sphereRow(int pc, const Contact& contact, std::vector<int>& touched);
 
   // A contact's row from its Jacobian entries
-  void contactEntryRow(int pc, int c, std::vector<int>& touched);
+  void contactEntryRow(int pc, int c, std::vector<int>& touched,
+                       ContactProblemWorkspace::EntryRowScratch& scratch);
 
   // The two sides of a contact written from its frame and points: a driven side adds its
   // motion at t to known and spin; visit(body, point, sign) for each dynamic side, with sign
@@ -148,7 +153,8 @@ struct ProblemAssembly {
     const int minv_first = static_cast<int>(p.minv_dof.size());
     p.minv_begin[pc + 1] = minv_first + (diagonal_row ? 0 : minvEntries(ws.touched));
     sizeEntries(first + count, p.minv_begin[pc + 1]);
-    finishEntryRow(pc, ws.touched, diagonal_row, known, gap, mu, e, Vector2::Zero(), 0.0);
+    finishEntryRow(pc, ws.touched, diagonal_row, known, gap, mu, e, Vector2::Zero(), 0.0,
+                   ws.entry_scratch[0]);
     joinComponents(ws.touched);
   }
 };

@@ -18,7 +18,8 @@ ContactProblemWorkspace::ContactProblemWorkspace(const Model& model)
       dof_component(model.nv, 0),
       component_parent(model.components.size()),
       island_of_root(model.components.size()),
-      minv_slot(model.nv, -1) {
+      entry_scratch(1) {
+  entry_scratch[0].minv_slot.assign(model.nv, -1);
   for (std::size_t i = 0; i < model.components.size(); ++i) {
     const Component& component = model.components[i];
     component_rhs[i] = MatrixX::Zero(component.nv, 3);

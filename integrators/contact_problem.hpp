@@ -427,9 +427,15 @@ struct ContactProblemWorkspace {
   std::vector<int> row_component;                // islands: a component of each row
   std::vector<int> component_parent;             // islands: union-find over components
   std::vector<int> island_of_root;
-  // per velocity index: its M^-1 H entry in the row being finished, -1 outside it. W_cc and
-  // W_r then pair each H entry with its M^-1 H entry in one lookup instead of a double loop.
-  std::vector<int> minv_slot;
+  // A general row's scratch, one per thread of the assembly (the first serves the serial rows)
+  struct EntryRowScratch {
+    // per velocity index: its M^-1 H entry in the row being finished, -1 outside it. W_cc and
+    // W_r then pair each H entry with its M^-1 H entry in one lookup instead of a double loop.
+    std::vector<int> minv_slot;
+    // H restricted to one component of at most 6 velocities, solved in place: no allocation
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 5> rhs;
+  };
+  std::vector<EntryRowScratch> entry_scratch;
   // per body: a free particle, whose contacts the assembly writes straight in body form
   // (see rowInBodyForm); filled on first use from the constant inverse masses of the Data
   std::vector<char> free_particle;

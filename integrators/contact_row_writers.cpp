@@ -83,7 +83,8 @@ void ProblemAssembly::finishRowTail(int pc, const std::vector<int>& touched, Mat
 
 void ProblemAssembly::finishEntryRow(int pc, const std::vector<int>& touched, bool diagonal_row,
                                      const Vector3& known, double gap, double mu, double e,
-                                     const Vector2& known_spin, double rolling_bound) {
+                                     const Vector2& known_spin, double rolling_bound,
+                                     ContactProblemWorkspace::EntryRowScratch& scratch) {
   p.row_body_form[pc] = -1;
   p.row_sphere[pc] = -1;
   p.diagonal[pc] = diagonal_row ? 1 : 0;
@@ -120,30 +121,37 @@ void ProblemAssembly::finishEntryRow(int pc, const std::vector<int>& touched, bo
         }
         continue;
       }
-      MatrixX& solved = ws.component_rhs[comp];
-      solved.setZero(component.nv, rhs_columns);
-      for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-        if (ws.dof_component[p.dof[k]] != comp) continue;
-        const int i = p.dof[k] - component.v_index;
-        solved.row(i).head<3>() = p.h[k].transpose();
-        if (p.rolling) solved.row(i).tail<2>() = p.rolling_h[k].transpose();
-      }
-      data.mass_factors[comp].solveInPlace(solved);
-      for (int i = 0; i < component.nv; ++i, ++slot) {
-        p.minv_dof[slot] = component.v_index + i;
-        p.minv_h[slot] = Vector3(solved(i, 0), solved(i, 1), solved(i, 2));
-        if (p.rolling) p.rolling_minv_h[slot] = Vector2(solved(i, 3), solved(i, 4));
-      }
+      auto solve = [&](auto& solved) {
+        solved.setZero(component.nv, rhs_columns);
+        for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
+          if (ws.dof_component[p.dof[k]] != comp) continue;
+          const int i = p.dof[k] - component.v_index;
+          solved.row(i).template head<3>() = p.h[k].transpose();
+          if (p.rolling) solved.row(i).template tail<2>() = p.rolling_h[k].transpose();
+        }
+        data.mass_factors[comp].solveInPlace(solved);
+        for (int i = 0; i < component.nv; ++i, ++slot) {
+          p.minv_dof[slot] = component.v_index + i;
+          p.minv_h[slot] = Vector3(solved(i, 0), solved(i, 1), solved(i, 2));
+          if (p.rolling) p.rolling_minv_h[slot] = Vector2(solved(i, 3), solved(i, 4));
+        }
+      };
+      if (component.nv <= 6)
+        solve(scratch.rhs);
+      else
+        solve(ws.component_rhs[comp]);
     }
     // W_cc = H_c^T M^-1 H_c
-    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = m;
+    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
+      scratch.minv_slot[p.minv_dof[m]] = m;
     for (int k = p.begin[pc]; k < p.begin[pc + 1]; ++k) {
-      const int m = ws.minv_slot[p.dof[k]];
+      const int m = scratch.minv_slot[p.dof[k]];
       if (m < 0) continue;
       W += p.h[k] * p.minv_h[m].transpose();
       if (p.rolling) W_r += p.rolling_h[k] * p.rolling_minv_h[m].transpose();
     }
-    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m) ws.minv_slot[p.minv_dof[m]] = -1;
+    for (int m = p.minv_begin[pc]; m < p.minv_begin[pc + 1]; ++m)
+      scratch.minv_slot[p.minv_dof[m]] = -1;
   }
   finishRowTail(pc, touched, W, W_r, known, gap, mu, e, known_spin, rolling_bound);
 }
@@ -259,7 +267,8 @@ void ProblemAssembly::sphereRow(int pc, const Contact& contact, std::vector<int>
   }
 }
 
-void ProblemAssembly::contactEntryRow(int pc, int c, std::vector<int>& touched) {
+void ProblemAssembly::contactEntryRow(int pc, int c, std::vector<int>& touched,
+                                      ContactProblemWorkspace::EntryRowScratch& scratch) {
   const Contact& contact = cdata.contacts[c];
   for (int k = J.begin[c], e = p.begin[pc]; k < J.begin[c + 1]; ++k, ++e) {
     p.dof[e] = J.dof[k];
@@ -270,7 +279,7 @@ void ProblemAssembly::contactEntryRow(int pc, int c, std::vector<int>& touched) 
       entryComponents(&J.dof[J.begin[c]], J.begin[c + 1] - J.begin[c], touched);
   finishEntryRow(pc, touched, diagonal_row, J.known_velocity[c], contact.gap, contact.friction,
                  contact.restitution, p.rolling ? J.known_spin[c] : Vector2::Zero(),
-                 contact.rolling);
+                 contact.rolling, scratch);
 }
 
 }  // namespace sweep
