@@ -29,6 +29,7 @@ FUNNEL = os.path.join(ROOT, "examples", "funnel", "funnel.yaml")
 POWDER = os.path.join(ROOT, "examples", "powder_bed", "powder_bed.yaml")
 FAST = os.path.join(ROOT, "examples", "powder_bed", "fast.yaml")
 REDUCED = os.path.join(ROOT, "examples", "powder_bed", "powder_bed_reduced.yaml")
+PILE_2D = os.path.join(ROOT, "bench", "scenes", "touching_pile_2d.yaml")
 # the pile at 0.06 s holds a few overlaps deeper than a restart accepts (a step at the cap):
 # the check is switched off, the state taken as it is
 FUNNEL_50K = ["--set", "generators[0].count=50000", "--set", "generators[0].orifice=0.0803",
@@ -40,6 +41,11 @@ def cases(args):
         "funnel_50 moreau-jean": [FUNNEL, "--scheme", "moreau-jean"],
         "funnel_50 catching-up": [FUNNEL, "--scheme", "catching-up"],
     }
+    if "pile_2d" in args.cases.split(","):
+        # 80 000 touching disks at rest, 20 steps at tolerance 1e-6; Jean-Moreau 5 steps, each
+        # at its 3 000-sweep cap
+        out["pile_2d catching-up"] = [PILE_2D]
+        out["pile_2d moreau-jean"] = [PILE_2D, "--scheme", "moreau-jean", "--t-end", "5e-4"]
     if args.funnel_state:
         for scheme in ("moreau-jean", "catching-up"):
             out[f"funnel_50000 {scheme}"] = [

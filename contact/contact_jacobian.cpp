@@ -1,7 +1,10 @@
 #include "contact/contact_jacobian.hpp"
 
+#include <cassert>
+
 #include "contact/detection.hpp"
 #include "framework/jacobian.hpp"
+#include "framework/parallel.hpp"
 
 namespace sweep {
 
@@ -15,31 +18,83 @@ void addDrivenVelocity(const DrivenBody& driven, const Contact& contact, const V
   spin += sign * Vector2(roll1.dot(twist.head<3>()), roll2.dot(twist.head<3>()));
 }
 
+namespace {
+
+// The columns forEachPointJacobianColumn visits for a point of `body`: its chain's dofs
+int chainColumns(const Model& model, const Data& data, int body) {
+  int count = 0;
+  for (int j = body; j >= 0; j = model.bodies[j].parent)
+    count += model.bodies[j].joint.type == JointType::Floating
+                 ? 6
+                 : static_cast<int>(data.motion_subspace[j].cols());
+  return count;
+}
+
+// The lowest body that is an ancestor of both a and b (each its own ancestor), -1 if none
+int commonAncestor(const Model& model, int a, int b) {
+  for (int i = a; i >= 0; i = model.bodies[i].parent)
+    for (int j = b; j >= 0; j = model.bodies[j].parent)
+      if (i == j) return i;
+  return -1;
+}
+
+bool sameTree(const Model& model, const Contact& contact) {
+  return contact.body_a.kind == BodyRef::Kind::Dynamic &&
+         contact.body_b.kind == BodyRef::Kind::Dynamic &&
+         model.bodies[contact.body_a.index].component ==
+             model.bodies[contact.body_b.index].component;
+}
+
+}  // namespace
+
+// Two passes, each on threads: every contact's entry count (a side's columns are its chain's
+// dofs; two sides in one tree share their common ancestors' columns), then each contact's
+// entries written at its own offset, with the arithmetic of a serial fill (every entry starts
+// at 0 and takes side a's term, then side b's): the same bits for every thread count.
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
                              ContactData& cdata, double t, double max_gap,
-                             const std::vector<char>* skip) {
+                             const std::vector<char>* skip, int threads) {
   ContactJacobian& J = cdata.jacobian;
   J.dimension = cmodel.dimension;
   const int n = static_cast<int>(cdata.contacts.size());
+  if (n < kParallelItems) threads = 1;
   J.begin.resize(n + 1);
   J.known_velocity.resize(n);
-  J.dof.clear();
-  J.normal.clear();
-  J.tangent1.clear();
-  J.tangent2.clear();
   J.rolling = cmodel.rolling;
-  J.rolling1.clear();
-  J.rolling2.clear();
   J.known_spin.resize(J.rolling ? n : 0);
+  auto assembled = [&](int c) {
+    return !(cdata.contacts[c].gap > max_gap || (skip != nullptr && (*skip)[c]));
+  };
+  parallelFor(n, threads, [&](int c) {
+    int count = 0;
+    if (assembled(c)) {
+      const Contact& contact = cdata.contacts[c];
+      for (const BodyRef& body : {contact.body_a, contact.body_b})
+        if (body.kind == BodyRef::Kind::Dynamic) count += chainColumns(model, data, body.index);
+      if (sameTree(model, contact)) {
+        const int common = commonAncestor(model, contact.body_a.index, contact.body_b.index);
+        if (common >= 0) count -= chainColumns(model, data, common);
+      }
+    }
+    J.begin[c + 1] = count;
+  });
+  J.begin[0] = 0;
+  for (int c = 0; c < n; ++c) J.begin[c + 1] += J.begin[c];
+  const std::size_t entries = static_cast<std::size_t>(J.begin[n]);
+  J.dof.resize(entries);
+  J.normal.resize(entries);
+  J.tangent1.resize(entries);
+  J.tangent2.resize(entries);
+  J.rolling1.resize(J.rolling ? entries : 0);
+  J.rolling2.resize(J.rolling ? entries : 0);
 
-  for (int c = 0; c < n; ++c) {
-    const Contact& contact = cdata.contacts[c];
-    J.begin[c] = static_cast<int>(J.dof.size());
-    if (contact.gap > max_gap || (skip != nullptr && (*skip)[c])) {
+  parallelFor(n, threads, [&](int c) {
+    if (!assembled(c)) {
       J.known_velocity[c] = Vector3::Zero();
       if (J.rolling) J.known_spin[c] = Vector2::Zero();
-      continue;
+      return;
     }
+    const Contact& contact = cdata.contacts[c];
     Vector3 known = Vector3::Zero();
     Vector2 spin = Vector2::Zero();
     // rolling rows: the relative angular velocity about the tangents (3D) or the plane normal
@@ -47,12 +102,11 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
     const Vector3 roll1 = cmodel.dimension == 2 ? Vector3(Vector3::UnitZ()) : contact.tangent1;
     const Vector3 roll2 = cmodel.dimension == 2 ? Vector3(Vector3::Zero()) : contact.tangent2;
     // Two sides in different trees never share a dof, so their columns are appended as they
-    // come; only a contact within one tree (self-collision) needs the slot lookup that merges
-    // them. A powder bed's 500 000 candidates spend a quarter of the step here.
-    const bool one_tree = contact.body_a.kind == BodyRef::Kind::Dynamic &&
-                          contact.body_b.kind == BodyRef::Kind::Dynamic &&
-                          model.bodies[contact.body_a.index].component ==
-                              model.bodies[contact.body_b.index].component;
+    // come; only a contact within one tree (self-collision) looks for the entry to merge into
+    // among the contact's own (a chain of a few dofs).
+    const bool one_tree = sameTree(model, contact);
+    const int first = J.begin[c];
+    int end = first;
     // U = velocity of b's point minus velocity of a's point, projected on the frame
     for (int side = 0; side < 2; ++side) {
       const BodyRef& body = side == 0 ? contact.body_a : contact.body_b;
@@ -61,18 +115,15 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
       if (body.kind == BodyRef::Kind::Dynamic) {
         forEachPointJacobianColumn(model, data, body.index, point,
                                    [&](int v_index, const Vector3& angular, const Vector3& linear) {
-                                     int unmerged = -1;
-                                     int& slot = one_tree ? cdata.dof_slot[v_index] : unmerged;
-                                     if (slot < 0) {
-                                       slot = static_cast<int>(J.dof.size());
-                                       J.dof.push_back(v_index);
-                                       J.normal.push_back(0.0);
-                                       J.tangent1.push_back(0.0);
-                                       J.tangent2.push_back(0.0);
-                                       if (J.rolling) {
-                                         J.rolling1.push_back(0.0);
-                                         J.rolling2.push_back(0.0);
-                                       }
+                                     int slot = end;
+                                     if (one_tree && side == 1)
+                                       for (int k = first; k < end; ++k)
+                                         if (J.dof[k] == v_index) slot = k;
+                                     if (slot == end) {
+                                       ++end;
+                                       J.dof[slot] = v_index;
+                                       J.normal[slot] = J.tangent1[slot] = J.tangent2[slot] = 0.0;
+                                       if (J.rolling) J.rolling1[slot] = J.rolling2[slot] = 0.0;
                                      }
                                      J.normal[slot] += sign * contact.normal.dot(linear);
                                      J.tangent1[slot] += sign * contact.tangent1.dot(linear);
@@ -87,13 +138,10 @@ void assembleContactJacobian(const Model& model, const Data& data, const Contact
                           known, spin);
       }
     }
-    if (one_tree)
-      for (int k = J.begin[c]; k < static_cast<int>(J.dof.size()); ++k)
-        cdata.dof_slot[J.dof[k]] = -1;
+    assert(end == J.begin[c + 1]);  // the counting pass's count
     J.known_velocity[c] = known;
     if (J.rolling) J.known_spin[c] = spin;
-  }
-  J.begin[n] = static_cast<int>(J.dof.size());
+  });
 }
 
 }  // namespace sweep

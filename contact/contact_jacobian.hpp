@@ -58,10 +58,11 @@ void addDrivenVelocity(const DrivenBody& driven, const Contact& contact, const V
 // their velocity at `t`. Contacts with gap > max_gap get no entries and zero known
 // velocities: a solve that takes closed contacts only (the VEL law) does not need the
 // rows of the open candidates, which in a granular heap outnumber the closed ones 2.5 to 1.
-// skip (when given, one flag per contact): contacts that get no entries either.
+// skip (when given, one flag per contact): contacts that get no entries either. On `threads`
+// threads from kParallelItems contacts on, the same bits for every count.
 void assembleContactJacobian(const Model& model, const Data& data, const ContactModel& cmodel,
                              ContactData& cdata, double t,
                              double max_gap = std::numeric_limits<double>::infinity(),
-                             const std::vector<char>* skip = nullptr);
+                             const std::vector<char>* skip = nullptr, int threads = 1);
 
 }  // namespace sweep

@@ -45,8 +45,8 @@ void classifyForGrid(const ContactModel& cmodel, ContactData& cdata) {
 
 }  // namespace
 
-ContactData::ContactData(const Model& model, const ContactModel& cmodel)
-    : geometry_pose(cmodel.size()), dof_slot(model.nv, -1) {
+ContactData::ContactData(const Model& /*model*/, const ContactModel& cmodel)
+    : geometry_pose(cmodel.size()) {
   jacobian.dimension = cmodel.dimension;
   if (cmodel.path == DetectionPath::Fcl) {
     fcl = std::make_unique<FclScene>(cmodel);

@@ -64,7 +64,6 @@ struct ContactData {
   std::vector<std::pair<int, int>> ghost_of;  // periodic images: (particle, image) per ghost
   GridBroadphase grid;
   std::unique_ptr<FclScene> fcl;
-  std::vector<int> dof_slot;  // Jacobian assembly: entry of each dof in the current row, or -1
 };
 
 // World poses of every geometry: bodies from data (after forwardKinematics), driven bodies

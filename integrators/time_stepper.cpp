@@ -389,7 +389,7 @@ void assembleJacobian(const StepModel& m, StepData& d) {
          rowInBodyForm(m.model, d.model_data, m.cmodel, d.contact_data.contacts[id], d.problem_ws));
   });
   assembleContactJacobian(m.model, d.model_data, m.cmodel, d.contact_data, d.t + 0.5 * m.settings.h,
-                          max_gap, &d.jacobian_skip);
+                          max_gap, &d.jacobian_skip, threads);
   d.jacobian_stale = false;
   d.stats.t_assemble += seconds(start);
 }

@@ -33,7 +33,8 @@ CASES = {
     "powder": ("examples/powder_bed/powder_bed_reduced.yaml", ["--set", "time.end=0.006"], 129),
     "urdf_arm": ("examples/archetypes/arm_on_table.yaml", [], 1),
     # 10 000 equal disks on a touching lattice: enough particles and pairs for the threaded
-    # broadphase, and 10 000 rows at once (with the NNCG momentum's step)
+    # broadphase, and 10 000 rows at once, written by the threaded assembly (general rows of
+    # planar bodies) and swept with the NNCG momentum's step
     "dense_funnel": ("examples/funnel/funnel.yaml",
                      ["--set", "generators[0].count=10000", "--set",
                       "generators[0].orifice=0.0359", "--set", "generators[0].radius_std=0",

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "contact_test_scenes.hpp"
 #include "framework/configuration.hpp"
+#include "framework/jacobian.hpp"
 #include "framework/urdf_import.hpp"
 
 namespace sweep {
@@ -214,6 +217,61 @@ TEST(ContactJacobian, UrdfArmTouchingABox) {
   detectContacts(arm, d2, cmodel, c2, 0.0, 0.05);
   ASSERT_GE(c2.contacts.size(), 1u);
   expectRatesMatch(s, v, 0.0, 0.05, c2.contacts.size());
+}
+
+// The arm's links against each other (self-collision): two sides in one tree share the
+// columns of their common ancestors, merged into one entry per dof, and the row gives the
+// relative velocity of the witness points that the dense point Jacobians give. (The gap's
+// rate by finite differences is no check here: the links' meshes overlap at their joints,
+// where the distance is a penetration depth with kinks.)
+TEST(ContactJacobian, SelfCollisionMergesTheCommonChain) {
+  Model arm = loadUrdf(std::string(SWEEP_TEST_DATA) + "/urdf/arm6.urdf");
+  ContactModelBuilder builder(arm);
+  DetectionSettings settings;
+  settings.self_collision = true;
+  builder.setSettings(settings);
+  builder.addModelCollisions();
+  const ContactModel cmodel = builder.build();
+  VectorX q = arm.neutralConfiguration();
+  q.head(3) << 0.3, 1.2, 0.5;
+  Data data(arm);
+  forwardKinematics(arm, data, q);
+  ContactData cdata(arm, cmodel);
+  detectContacts(arm, data, cmodel, cdata, 0.0, 0.5);
+  assembleContactJacobian(arm, data, cmodel, cdata, 0.0);
+  const ContactJacobian& J = cdata.jacobian;
+  const VectorX v = randomVelocity(arm.nv, 7);
+  int shared = 0;
+  for (std::size_t c = 0; c < cdata.contacts.size(); ++c) {
+    const Contact& contact = cdata.contacts[c];
+    ASSERT_EQ(contact.body_a.kind, BodyRef::Kind::Dynamic);
+    ASSERT_EQ(contact.body_b.kind, BodyRef::Kind::Dynamic);
+    std::vector<int> dofs(J.dof.begin() + J.begin[c], J.dof.begin() + J.begin[c + 1]);
+    std::sort(dofs.begin(), dofs.end());
+    // the union of the two chains' dofs, each once
+    std::vector<int> chains;
+    for (const BodyRef& body : {contact.body_a, contact.body_b})
+      for (int b = body.index; b >= 0; b = arm.bodies[b].parent)
+        for (int k = 0; k < arm.bodies[b].joint.nv(); ++k)
+          chains.push_back(arm.bodies[b].v_index + k);
+    std::sort(chains.begin(), chains.end());
+    const std::size_t both = chains.size();
+    chains.erase(std::unique(chains.begin(), chains.end()), chains.end());
+    EXPECT_EQ(dofs, chains) << "contact " << c;
+    shared += chains.size() < both;
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Ja =
+        Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, arm.nv);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Jb = Ja;
+    pointJacobian(arm, data, contact.body_a.index, contact.point_a, Ja);
+    pointJacobian(arm, data, contact.body_b.index, contact.point_b, Jb);
+    const Vector3 relative = (Jb.bottomRows<3>() - Ja.bottomRows<3>()) * v;
+    const Vector3 u = J.relativeVelocity(static_cast<int>(c), v);
+    const double scale = 1e-12 * (1.0 + relative.norm());
+    EXPECT_NEAR(u.x(), contact.normal.dot(relative), scale) << "contact " << c;
+    EXPECT_NEAR(u.y(), contact.tangent1.dot(relative), scale) << "contact " << c;
+    EXPECT_NEAR(u.z(), contact.tangent2.dot(relative), scale) << "contact " << c;
+  }
+  EXPECT_GE(shared, 1);  // some pairs share a chain: the merge is exercised
 }
 
 TEST(ContactJacobian, DrivenBodyEntersAsKnownVelocity) {
