@@ -9,9 +9,11 @@
 //   - factorize: the numeric factorization of the values on that pattern; false when the
 //     matrix is not positive definite.
 //   - solve: L D L^T x = rhs.
-// Disjoint subtrees of the elimination tree are factorized and solved at once (Geist & Ng
-// 1989), each row with the arithmetic of the one-thread factorization: the same bits for
-// every thread count. No call allocates once a pattern is analysed.
+// Rows in disjoint subtrees of the elimination tree are factorized at once, list-scheduled
+// onto the threads (HEFT: Topcuoglu, Hariri & Wu 2002), and a dissected matrix's separator by
+// its Schur complement, dense: L21 D1 = A21 L11^-T, S = A22 - L21 D1 L21^T = L22 D2 L22^T. Every
+// entry's arithmetic is the same whichever thread computes it: the same bits for every thread
+// count. No call allocates once a pattern is analysed.
 #include <memory>
 #include <vector>
 

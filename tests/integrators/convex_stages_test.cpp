@@ -14,6 +14,7 @@
 #include "framework/parallel.hpp"
 #include "integrators/mprgp.hpp"
 #include "integrators/projected_newton.hpp"
+#include "integrators/sparse_cholesky.hpp"
 #include "solver_fixtures.hpp"
 
 namespace sweep {
@@ -530,6 +531,88 @@ TEST(ProjectedNewton, LargeProgramsOfAnyGraphShape) {
         x_one = x;
       else
         EXPECT_TRUE(x == x_one) << shape.name;
+    }
+  }
+}
+
+// The factorization alone, on a matrix dissected into two sides and a separator: a 2D grid's
+// 5-point matrix of 5 000 rows, random weights. The sides' rows list-scheduled onto threads and
+// the separator by its Schur complement solve it to rounding, with the bits of one thread on
+// 2 and 3 threads, on a refactorization with new values, and inside a caller's parallel region
+// (whose nested team of one thread runs the rows in order).
+TEST(SparseCholesky, ScheduledRowsAndSchurSeparatorKeepTheBitsOfOneThread) {
+  const int side = 70, n = side * side;
+  std::vector<int> begin(1, 0), row;
+  for (int j = 0; j < n; ++j) {
+    row.push_back(j);
+    if ((j + 1) % side != 0) row.push_back(j + 1);
+    if (j + side < n) row.push_back(j + side);
+    begin.push_back(static_cast<int>(row.size()));
+  }
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> weight(0.1, 1.0);
+  auto values = [&] {
+    // off the diagonal -w, on it the sum of its row's weights and a little: positive definite
+    std::vector<double> value(row.size(), 0.0), diagonal(n, 1e-3);
+    for (int j = 0; j < n; ++j)
+      for (int e = begin[j] + 1; e < begin[j + 1]; ++e) {
+        value[e] = -weight(rng);
+        diagonal[j] -= value[e];
+        diagonal[row[e]] -= value[e];
+      }
+    for (int j = 0; j < n; ++j) value[begin[j]] = diagonal[j];
+    return value;
+  };
+  auto residual = [&](const std::vector<double>& value, const std::vector<double>& rhs,
+                      const std::vector<double>& x) {
+    std::vector<double> r = rhs;
+    for (int j = 0; j < n; ++j)
+      for (int e = begin[j]; e < begin[j + 1]; ++e) {
+        r[row[e]] -= value[e] * x[j];
+        if (row[e] != j) r[j] -= value[e] * x[row[e]];
+      }
+    double worst = 0.0;
+    for (double ri : r) worst = std::max(worst, std::abs(ri));
+    return worst;
+  };
+  std::vector<double> rhs(n);
+  for (double& b : rhs) b = weight(rng) - 0.5;
+  for (int round = 0; round < 2; ++round) {
+    const std::vector<double> value = values();
+    std::vector<double> x_one;
+    for (int threads : {1, 2, 3, -2}) {  // -2: two threads asked for inside a parallel region
+      SparseCholesky cholesky;
+      std::vector<double> x(n, 0.0);
+      bool factorized = false;
+      if (threads > 0) {
+        ASSERT_TRUE(cholesky.analyze(n, begin, row, threads));
+        // a first factorization of other values, so that the one compared is a refactorization
+        if (round == 1) {
+          ASSERT_TRUE(cholesky.factorize(values()));
+        }
+        factorized = cholesky.factorize(value);
+        cholesky.solve(rhs, x);
+        if (threads > 1) {
+          EXPECT_EQ(cholesky.threads(), threads) << "the split is not taken";
+        }
+      } else {
+#pragma omp parallel num_threads(2)
+        {
+#pragma omp single
+          {
+            if (cholesky.analyze(n, begin, row, -threads)) {
+              factorized = cholesky.factorize(value);
+              cholesky.solve(rhs, x);
+            }
+          }
+        }
+      }
+      ASSERT_TRUE(factorized) << threads << " threads";
+      EXPECT_LT(residual(value, rhs, x), 1e-10) << threads << " threads";
+      if (threads == 1)
+        x_one = x;
+      else
+        EXPECT_TRUE(x == x_one) << threads << " threads, round " << round;
     }
   }
 }
