@@ -24,6 +24,8 @@ Data::Data(const Model& model)
   has_constant_inverse6.assign(model.components.size(), 0);
   constant_inverse6_diagonal.assign(model.components.size(), 0);
   constant_inverse_diagonal = VectorX::Zero(model.nv);
+  constant_small_diagonal.assign(model.components.size(), 0);
+  small_inverse_diagonal = VectorX::Zero(model.nv);
   for (size_t c = 0; c < model.components.size(); ++c) {
     if (!model.components[c].constant_mass) continue;
     mass_factors[c].compute(mass_blocks[c]);
@@ -34,6 +36,14 @@ Data::Data(const Model& model)
       constant_inverse6_diagonal[c] = Matrix6(inverse.diagonal().asDiagonal()) == inverse;
       if (constant_inverse6_diagonal[c])
         constant_inverse_diagonal.segment<6>(model.components[c].v_index) = inverse.diagonal();
+    } else if (model.components[c].nv < 6 && mass_factors[c].info() == Eigen::Success) {
+      const MatrixX& block = mass_blocks[c];
+      if (MatrixX(block.diagonal().asDiagonal()) == block &&
+          (block.diagonal().array() > 0.0).all()) {
+        constant_small_diagonal[c] = 1;
+        small_inverse_diagonal.segment(model.components[c].v_index, model.components[c].nv) =
+            block.diagonal().cwiseInverse();
+      }
     }
   }
 }

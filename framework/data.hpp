@@ -34,6 +34,11 @@ struct Data {
   // per velocity: the diagonal of its component's constant inverse where that is diagonal,
   // 0 elsewhere. One contiguous read per body where the 6 x 6 blocks cost six cache lines.
   VectorX constant_inverse_diagonal;
+  // per component with fewer than 6 velocities: whether its constant block is diagonal (a
+  // planar body about its centre of mass), and per velocity that block's inverse diagonal,
+  // so that the assembly scales H instead of a dynamic-size triangular solve per contact
+  std::vector<char> constant_small_diagonal;
+  VectorX small_inverse_diagonal;
 
   VectorX tau;  // generalized force out of rnea()
   VectorX ddq;  // generalized acceleration out of forwardDynamics()

@@ -129,7 +129,12 @@ void ProblemAssembly::finishEntryRow(int pc, const std::vector<int>& touched, bo
           solved.row(i).template head<3>() = p.h[k].transpose();
           if (p.rolling) solved.row(i).template tail<2>() = p.rolling_h[k].transpose();
         }
-        data.mass_factors[comp].solveInPlace(solved);
+        if (data.constant_small_diagonal[comp]) {
+          for (int i = 0; i < component.nv; ++i)
+            solved.row(i) *= data.small_inverse_diagonal[component.v_index + i];
+        } else {
+          data.mass_factors[comp].solveInPlace(solved);
+        }
         for (int i = 0; i < component.nv; ++i, ++slot) {
           p.minv_dof[slot] = component.v_index + i;
           p.minv_h[slot] = Vector3(solved(i, 0), solved(i, 1), solved(i, 2));
