@@ -341,18 +341,16 @@ class CholmodFactor {
 
  private:
   // The separator's rows (the last s = n - m of the dissection's order) by their Schur
-  // complement, where row-by-row they would be the serial top of the elimination tree and,
-  // each of them reaching back into thousands of the sides' columns, the slowest rows per
-  // flop (a 2D contact network's separator: 16 % of the flops, half the time on two threads).
-  // With L11 D1 L11^T the sides' factor (rowfac, above):
+  // complement. Row by row they are a chain of the elimination tree that no two threads can
+  // share, each row reaching back into hundreds of the sides' columns (the 80 000-disk pile's
+  // stage 5b: 200 rows, 16 % of the flops). With L11 D1 L11^T the sides' factor (rowfac):
   //   L21 D1 = A21 L11^-T          row by row, each a sparse triangular solve on its own
   //   S = A22 - L21 D1 L21^T       entry by entry, the sides' columns in increasing order
   //   L22 D2 L22^T = S             dense, up-looking
-  // The rows of L21 and of S are shared among the threads; each entry's arithmetic does not
-  // depend on who computes it: the same bits for every thread count.
-  // The separator's rows, their entries in the sides' columns and in its own, and the dense
-  // blocks: the separator factorized by its Schur complement when it has 1 to kMaxSchurRows
-  // rows (top_first_ = m), else row by row as the rest (top_first_ = -1)
+  // The rows of L21 and of S are dealt to the threads; each entry's arithmetic does not depend
+  // on who computes it: the same bits for every thread count. Taken for separators of 1 to
+  // kMaxSchurRows rows (top_first_ = m); larger ones go row by row with the rest
+  // (top_first_ = -1).
   void analyzeTop(int separator) {
     top_first_ = -1;
     if (separator < 1 || separator > kMaxSchurRows) return;
@@ -529,7 +527,6 @@ class CholmodFactor {
   static constexpr int kParallelRows = 4096;
   // a task holds a subtree of at most this fraction of a thread's share of the work
   static constexpr double kGrainsPerThread = 8.0;
-  static constexpr double kColumnCost = 24.0;
   // a split is used when its estimated time is below this fraction of one thread's
   static constexpr double kWorthwhile = 0.9;
 
@@ -584,7 +581,7 @@ class CholmodFactor {
         for (int e = upper_begin_[k]; e < upper_begin_[k + 1]; ++e)
           for (int i = upper_row_[e]; i >= 0 && i < k && mark[i] != k; i = parent_[i]) {
             mark[i] = k;
-            work += kColumnCost + ++held[i];
+            work += ++held[i];
           }
         subtree_work_[k] = work;
       }
