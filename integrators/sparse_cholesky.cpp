@@ -13,133 +13,15 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <mutex>
 #include <thread>
 #include <utility>
 
 #include "framework/parallel.hpp"
+#include "integrators/nested_dissection.hpp"
 
 namespace sweep {
 
 namespace {
-
-void startCommon(cholmod_common& common) {
-  cholmod_start(&common);
-  common.print = 0;
-  common.error_handler = nullptr;
-}
-
-// a CHOLMOD view of an n x n matrix's compressed columns (begin, row), rows sorted (values
-// null: the pattern alone; stype -1: the lower triangle of a symmetric one, 1: the upper)
-cholmod_sparse sparseView(int n, std::vector<int>& begin, std::vector<int>& row, double* value,
-                          int stype) {
-  cholmod_sparse m{};
-  m.nrow = m.ncol = static_cast<size_t>(n);
-  m.nzmax = row.size();
-  m.p = begin.data();
-  m.i = row.data();
-  m.x = value;
-  m.stype = stype;
-  m.itype = CHOLMOD_INT;
-  m.xtype = value != nullptr ? CHOLMOD_REAL : CHOLMOD_PATTERN;
-  m.dtype = CHOLMOD_DOUBLE;
-  m.sorted = 1;
-  m.packed = 1;
-  return m;
-}
-
-// The fill-reducing order of a large matrix: one level of nested dissection, constrained
-// minimum degree below it. METIS's vertex separator (Karypis & Kumar 1998, "A fast and high
-// quality multilevel scheme for partitioning irregular graphs", SIAM J. Sci. Comput. 20; by
-// CHOLMOD's cholmod_bisect) splits the matrix's graph into two sides that no entry joins; each
-// side is ordered by CAMD on its own graph with the separator, the separator held last (Davis's
-// constrained AMD: the side's degrees count the separator's fill, as one CAMD over the whole
-// matrix would); the two run at once on two threads; the separator's rows come last. The
-// elimination tree becomes two disjoint trees under the separator's rows, where AMD alone ends
-// its trees of contact networks in a long chain of rows that no thread can share (docs/
-// architecture.md, "Threads are OpenMP"). The fill stays AMD's. METIS seeds its
-// generator with a fixed seed and runs on one thread: the order does not depend on the thread
-// count.
-class DissectionOrdering {
- public:
-  DissectionOrdering() {
-    for (cholmod_common& c : common_) startCommon(c);
-  }
-  ~DissectionOrdering() {
-    for (cholmod_common& c : common_) cholmod_finish(&c);
-  }
-  DissectionOrdering(const DissectionOrdering&) = delete;
-  DissectionOrdering& operator=(const DissectionOrdering&) = delete;
-
-  // permutation[k]: the row eliminated k-th, of the n x n matrix whose lower triangle has the
-  // compressed columns (begin, row), rows sorted
-  bool order(int n, std::vector<int>& begin, std::vector<int>& row, int threads,
-             std::vector<int>& permutation) {
-    cholmod_sparse whole = sparseView(n, begin, row, nullptr, -1);
-    part_.resize(n);
-    {
-      // METIS re-seeds one process-wide generator at each call: two at once (two simulations on
-      // two threads, as Python may run them) would draw from each other's sequence
-      static std::mutex metis;
-      const std::lock_guard<std::mutex> lock(metis);
-      // compress: nodes of equal adjacency merged before METIS sees the graph
-      if (cholmod_bisect(&whole, nullptr, 0, 1, part_.data(), &common_[0]) < 0) return false;
-    }
-    // each side's graph with the separator (CAMD's constraint set 1), numbered in the matrix's
-    // order
-    local_.resize(n);
-    for (int s = 0; s < 2; ++s) {
-      std::vector<int>& nodes = side_node_[s];
-      nodes.clear();
-      for (int v = 0; v < n; ++v) {
-        local_[v] = -1;
-        if (part_[v] == s || part_[v] == kSeparator) {
-          local_[v] = static_cast<int>(nodes.size());
-          nodes.push_back(v);
-        }
-      }
-      side_begin_[s].assign(1, 0);
-      side_row_[s].clear();
-      side_constraint_[s].clear();
-      for (int v : nodes) {
-        for (int e = begin[v]; e < begin[v + 1]; ++e)
-          if (local_[row[e]] >= 0) side_row_[s].push_back(local_[row[e]]);
-        side_begin_[s].push_back(static_cast<int>(side_row_[s].size()));
-        side_constraint_[s].push_back(part_[v] == kSeparator ? 1 : 0);
-      }
-      side_order_[s].resize(nodes.size());
-    }
-    int ordered[2] = {1, 1};
-    parallelFor(2, std::min(threads, 2), [&](int s) {
-      const int m = static_cast<int>(side_node_[s].size());
-      if (m == 0) return;
-      cholmod_sparse lower = sparseView(m, side_begin_[s], side_row_[s], nullptr, -1);
-      ordered[s] = cholmod_camd(&lower, nullptr, 0, side_constraint_[s].data(),
-                                side_order_[s].data(), &common_[s]);
-    });
-    if (!ordered[0] || !ordered[1]) return false;
-    // side 0, side 1, then the separator in side 0's order (the whole of it when side 0 is
-    // empty: then side_node_[0] is the separator)
-    permutation.clear();
-    for (int s = 0; s < 2; ++s)
-      for (int k : side_order_[s])
-        if (part_[side_node_[s][k]] == s) permutation.push_back(side_node_[s][k]);
-    for (int k : side_order_[0])
-      if (part_[side_node_[0][k]] == kSeparator) permutation.push_back(side_node_[0][k]);
-    return static_cast<int>(permutation.size()) == n;
-  }
-  // the rows of the last order's separator (the permutation's last ones)
-  int separatorRows() const {
-    return static_cast<int>(std::count(part_.begin(), part_.end(), kSeparator));
-  }
-
- private:
-  static constexpr int kSeparator = 2;  // cholmod_bisect's mark of the separator's nodes
-
-  std::vector<int> part_, local_;
-  std::vector<int> side_node_[2], side_begin_[2], side_row_[2], side_constraint_[2], side_order_[2];
-  cholmod_common common_[2]{};  // one per side: the two orderings run at once
-};
 
 // CHOLMOD's common block, the fill-reducing permutation, the matrix permuted into CHOLMOD's
 // own working form and the symbolic and numeric factor, all kept between solves. The matrix
@@ -360,8 +242,9 @@ class CholmodFactor {
     mark.assign(n, -1);
     top_begin_.assign(1, 0);
     top_column_.clear();
-    separator_begin_.assign(s + 1, 0);   // counts first, by column
-    std::vector<int>& pattern = child_;  // free until the split's children lists
+    separator_begin_.assign(s + 1, 0);                   // counts first, by column
+    std::vector<int>& pattern = child_;                  // free until the split's children lists
+    std::vector<std::pair<int, int>> separator_entries;  // (row, column) of L22, by rows
     for (int k = m; k < n; ++k) {
       mark[k] = k;
       pattern.clear();
@@ -372,10 +255,12 @@ class CholmodFactor {
         }
       std::sort(pattern.begin(), pattern.end());
       for (int i : pattern) {
-        if (i < m)
+        if (i < m) {
           top_column_.push_back(i);
-        else
+        } else {
           ++separator_begin_[i - m + 1];
+          separator_entries.push_back({k - m, i - m});
+        }
       }
       top_begin_.push_back(static_cast<int>(top_column_.size()));
     }
@@ -395,25 +280,12 @@ class CholmodFactor {
           column_position_[q] = p;
         }
     }
-    // the separator's columns' entries (rows below the diagonal, increasing), from the rows'
-    // patterns again
+    // the separator's columns' entries (rows below the diagonal, increasing)
     for (int b = 0; b < s; ++b) separator_begin_[b + 1] += separator_begin_[b];
     separator_row_.resize(separator_begin_[s]);
     {
       std::vector<int> next(separator_begin_.begin(), separator_begin_.end() - 1);
-      std::vector<int>& seen = mark;
-      seen.assign(n, -1);
-      for (int k = m; k < n; ++k) {
-        seen[k] = k;
-        pattern.clear();
-        for (int e = upper_begin_[k]; e < upper_begin_[k + 1]; ++e)
-          for (int i = upper_row_[e]; i >= 0 && i < k && seen[i] != k; i = parent_[i]) {
-            seen[i] = k;
-            if (i >= m) pattern.push_back(i);
-          }
-        std::sort(pattern.begin(), pattern.end());
-        for (int i : pattern) separator_row_[next[i - m]++] = k - m;
-      }
+      for (const auto& [a, b] : separator_entries) separator_row_[next[b]++] = a;
     }
     top_l_.assign(top_column_.size(), 0.0);
     top_u_.assign(top_column_.size(), 0.0);
