@@ -9,7 +9,7 @@ packages=(
   build-essential cmake clang-format
   libeigen3-dev liburdfdom-dev libfcl-dev libccd-dev libassimp-dev libqhull-dev libsundials-dev libyaml-cpp-dev
   libsuitesparse-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
-  libjs-three pybind11-dev python3-dev python3-matplotlib python3-numpy
+  libjs-three pybind11-dev python3-dev python3-matplotlib python3-numpy libopenmpi-dev openmpi-bin
 )
 for option in "$@"; do
   case "$option" in

@@ -1,0 +1,472 @@
+// The particles' domain decomposition over MPI ranks (domain_decomposition.hpp).
+#include "contact/domain_decomposition.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "framework/error.hpp"
+
+namespace sweep {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// an integer carried bit for bit in a double of the exchange buffers
+double bitsOf(std::int64_t value) {
+  double bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  return bits;
+}
+std::int64_t integerOf(double bits) {
+  std::int64_t value;
+  std::memcpy(&value, &bits, sizeof value);
+  return value;
+}
+
+void check(int status, const char* call) {
+  if (status == MPI_SUCCESS) return;
+  std::fprintf(stderr, "sweep: %s failed (MPI error %d)\n", call, status);
+  MPI_Abort(MPI_COMM_WORLD, 1);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// RankGroup, MpiSession
+
+RankGroup RankGroup::world() {
+  int initialized = 0, finalized = 0;
+  MPI_Initialized(&initialized);
+  MPI_Finalized(&finalized);
+  if (!initialized || finalized) return RankGroup(0, 1, false);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  return RankGroup(rank, size, true);
+}
+
+void RankGroup::sum(std::vector<std::int64_t>& values) const {
+  if (!mpi_ || values.empty()) return;
+  static_assert(sizeof(std::int64_t) == sizeof(long long), "int64 is MPI_LONG_LONG");
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_LONG_LONG,
+                      MPI_SUM, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+}
+
+void RankGroup::min(std::vector<double>& values) const {
+  if (!mpi_ || values.empty()) return;
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                      MPI_MIN, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+}
+
+void RankGroup::max(std::vector<double>& values) const {
+  if (!mpi_ || values.empty()) return;
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                      MPI_MAX, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+}
+
+void RankGroup::exchange(const std::vector<std::vector<double>>& send,
+                         std::vector<std::vector<double>>& receive) const {
+  receive.resize(size_);
+  if (!mpi_) {
+    receive[0] = send[0];
+    return;
+  }
+  std::vector<int> send_count(size_), receive_count(size_), send_offset(size_ + 1, 0),
+      receive_offset(size_ + 1, 0);
+  for (int r = 0; r < size_; ++r) {
+    if (send[r].size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      abort("sweep: a rank's exchange exceeds 2^31 doubles", 1);
+    send_count[r] = static_cast<int>(send[r].size());
+  }
+  check(
+      MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, MPI_COMM_WORLD),
+      "MPI_Alltoall");
+  for (int r = 0; r < size_; ++r) {
+    send_offset[r + 1] = send_offset[r] + send_count[r];
+    receive_offset[r + 1] = receive_offset[r] + receive_count[r];
+  }
+  std::vector<double> out(static_cast<std::size_t>(send_offset[size_]));
+  std::vector<double> in(static_cast<std::size_t>(receive_offset[size_]));
+  for (int r = 0; r < size_; ++r)
+    std::copy(send[r].begin(), send[r].end(), out.begin() + send_offset[r]);
+  check(MPI_Alltoallv(out.data(), send_count.data(), send_offset.data(), MPI_DOUBLE, in.data(),
+                      receive_count.data(), receive_offset.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Alltoallv");
+  for (int r = 0; r < size_; ++r)
+    receive[r].assign(in.begin() + receive_offset[r], in.begin() + receive_offset[r + 1]);
+}
+
+std::vector<double> RankGroup::gather(const std::vector<double>& values) const {
+  if (!mpi_) return values;
+  std::vector<int> count(size_), offset(size_ + 1, 0);
+  const int own = static_cast<int>(values.size());
+  check(MPI_Allgather(&own, 1, MPI_INT, count.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+  for (int r = 0; r < size_; ++r) offset[r + 1] = offset[r] + count[r];
+  std::vector<double> all(static_cast<std::size_t>(offset[size_]));
+  check(MPI_Allgatherv(values.data(), own, MPI_DOUBLE, all.data(), count.data(), offset.data(),
+                       MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Allgatherv");
+  return all;
+}
+
+void RankGroup::abort(const char* message, int code) const {
+  std::fprintf(stderr, "%s\n", message);
+  std::fflush(stderr);
+  if (mpi_) MPI_Abort(MPI_COMM_WORLD, code);
+  std::exit(code);
+}
+
+MpiSession::MpiSession(int& argc, char**& argv) {
+  int provided = 0;
+  check(MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
+}
+
+MpiSession::~MpiSession() {
+  MPI_Finalize();
+}
+
+// ---------------------------------------------------------------------------------------------
+// ParticleSet
+
+void ParticleSet::clear() {
+  id.clear();
+  position.clear();
+  work.clear();
+  payload.clear();
+}
+
+void ParticleSet::append(const ParticleSet& from, int i, const Vector3& shift) {
+  id.push_back(from.id[i]);
+  position.push_back(from.position[i] + shift);
+  work.push_back(from.work[i]);
+  const auto first = from.payload.begin() + static_cast<std::ptrdiff_t>(i) * payload_width;
+  payload.insert(payload.end(), first, first + payload_width);
+}
+
+// ---------------------------------------------------------------------------------------------
+// DomainDecomposition
+
+DomainDecomposition::DomainDecomposition(const RankGroup& ranks,
+                                         const DecompositionSettings& settings)
+    : ranks_(ranks), settings_(settings) {
+  const char* axis_name[3] = {"x", "y", "z"};
+  if (settings.dimension != 2 && settings.dimension != 3)
+    throw InputError("domain decomposition: dimension must be 2 or 3, got " +
+                     std::to_string(settings.dimension));
+  if (!(std::isfinite(settings.ghost_width) && settings.ghost_width >= 0.0))
+    throw InputError("domain decomposition: ghost_width must be finite and >= 0, got " +
+                     formatValue(settings.ghost_width));
+  for (int a = 0; a < settings.dimension; ++a) {
+    const double lo = settings.lower[a], hi = settings.upper[a];
+    if (!(std::isfinite(lo) && std::isfinite(hi) && lo < hi))
+      throw InputError(std::string("domain decomposition: the box along ") + axis_name[a] +
+                       " must be finite with lower < upper, got [" + formatValue(lo) + ", " +
+                       formatValue(hi) + "]");
+    if (settings.periodic[a] && 2.0 * settings.ghost_width > hi - lo)
+      throw InputError(std::string("domain decomposition: the period along ") + axis_name[a] +
+                       " (" + formatValue(hi - lo) + ") is shorter than twice ghost_width (" +
+                       formatValue(settings.ghost_width) + ")");
+  }
+  if (settings.dimension == 2 && settings.periodic[2])
+    throw InputError("domain decomposition: a 2D domain cannot be periodic along z");
+  // until the first balance rank 0's region is the whole domain, the others' empty
+  nodes_.assign(1, Node{});
+  region_lower_.assign(ranks_.size(), Vector3::Constant(kInfinity));
+  region_upper_.assign(ranks_.size(), Vector3::Constant(-kInfinity));
+  for (int a = 0; a < 3; ++a) {
+    region_lower_[0][a] = settings.periodic[a] ? settings.lower[a] : -kInfinity;
+    region_upper_[0][a] = settings.periodic[a] ? settings.upper[a] : kInfinity;
+  }
+  send_buffer_.resize(ranks_.size());
+}
+
+Vector3 DomainDecomposition::wrapped(const Vector3& position) const {
+  Vector3 p = position;
+  for (int a = 0; a < 3; ++a) {
+    if (!settings_.periodic[a]) continue;
+    const double lo = settings_.lower[a], period = settings_.upper[a] - lo;
+    double x = std::fmod(p[a] - lo, period);
+    if (x < 0.0) x += period;
+    if (x >= period) x = 0.0;  // fmod's -tiny + period rounds to period
+    p[a] = lo + x;
+  }
+  return p;
+}
+
+int DomainDecomposition::leafOf(const Vector3& p) const {
+  int node = 0;
+  while (nodes_[node].axis >= 0) {
+    const Node& n = nodes_[node];
+    node = n.child[p[n.axis] < n.cut ? 0 : 1];
+  }
+  return node;
+}
+
+int DomainDecomposition::owner(const Vector3& position) const {
+  return nodes_[leafOf(wrapped(position))].rank;
+}
+
+void DomainDecomposition::region(int rank, Vector3& lower, Vector3& upper) const {
+  lower = region_lower_.at(rank);
+  upper = region_upper_.at(rank);
+}
+
+void DomainDecomposition::ranksMeeting(const Vector3& lo, const Vector3& hi,
+                                       std::vector<int>& ranks) const {
+  // depth-first, child 0 first: the ranks in increasing order
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& n = nodes_[stack[--top]];
+    if (n.axis < 0) {
+      ranks.push_back(n.rank);
+      continue;
+    }
+    if (hi[n.axis] >= n.cut) stack[top++] = n.child[1];
+    if (lo[n.axis] < n.cut) stack[top++] = n.child[0];
+  }
+}
+
+double DomainDecomposition::imbalance(const ParticleSet& owned) const {
+  std::vector<std::int64_t> work(ranks_.size(), 0);
+  for (std::int64_t w : owned.work) work[ranks_.rank()] += w;
+  ranks_.sum(work);
+  std::int64_t total = 0, most = 0;
+  for (std::int64_t w : work) {
+    total += w;
+    most = std::max(most, w);
+  }
+  if (total == 0) return 1.0;
+  return static_cast<double>(most) * ranks_.size() / static_cast<double>(total);
+}
+
+ExchangeStats DomainDecomposition::balance(ParticleSet& owned) {
+  const int n = owned.size();
+  for (int i = 0; i < n; ++i) {
+    owned.position[i] = wrapped(owned.position[i]);
+    if (owned.work[i] < 1)
+      throw InputError("domain decomposition: particle " + std::to_string(owned.id[i]) +
+                       " has work " + std::to_string(owned.work[i]) + ", must be >= 1");
+  }
+  // A region being cut: its node, its ranks [first, first + count), and the box the cut is
+  // searched in (the domain's, cut by the cuts above).
+  struct Region {
+    int node, first, count;
+    Vector3 lower, upper, search_lower, search_upper;
+  };
+  nodes_.assign(1, Node{});
+  Region root{
+      0, 0, ranks_.size(), Vector3::Zero(), Vector3::Zero(), settings_.lower, settings_.upper};
+  for (int a = 0; a < 3; ++a) {
+    root.lower[a] = settings_.periodic[a] ? settings_.lower[a] : -kInfinity;
+    root.upper[a] = settings_.periodic[a] ? settings_.upper[a] : kInfinity;
+  }
+  std::vector<Region> level{root};
+  std::vector<int> node_of(n, 0);  // each particle's region at this level
+  std::vector<int> slot_of_node;   // a node's place in `cutting`, -1 when it is a leaf
+  while (!level.empty()) {
+    std::vector<Region> cutting, next;
+    for (const Region& r : level) {
+      if (r.count == 1) {
+        nodes_[r.node].rank = r.first;
+        region_lower_[r.first] = r.lower;
+        region_upper_[r.first] = r.upper;
+      } else {
+        cutting.push_back(r);
+      }
+    }
+    if (cutting.empty()) break;
+    const int m = static_cast<int>(cutting.size());
+    slot_of_node.assign(nodes_.size(), -1);
+    std::vector<int> axis(m);
+    std::vector<double> lo(m), hi(m);
+    for (int g = 0; g < m; ++g) {
+      slot_of_node[cutting[g].node] = g;
+      int best = 0;
+      for (int a = 1; a < settings_.dimension; ++a)
+        if (cutting[g].search_upper[a] - cutting[g].search_lower[a] >
+            cutting[g].search_upper[best] - cutting[g].search_lower[best])
+          best = a;
+      axis[g] = best;
+      lo[g] = cutting[g].search_lower[best];
+      hi[g] = cutting[g].search_upper[best];
+    }
+    // each region's work, then its target below the cut
+    std::vector<std::int64_t> total(m, 0), target(m);
+    for (int i = 0; i < n; ++i) {
+      const int g = slot_of_node[node_of[i]];
+      if (g >= 0) total[g] += owned.work[i];
+    }
+    ranks_.sum(total);
+    for (int g = 0; g < m; ++g) target[g] = total[g] * (cutting[g].count / 2) / cutting[g].count;
+    // bisection on every region's cut at once: work below mid against the target
+    std::vector<std::int64_t> below(m);
+    for (int halving = 0; halving < 100; ++halving) {
+      std::vector<double> mid(m);
+      bool moving = false;
+      for (int g = 0; g < m; ++g) {
+        mid[g] = 0.5 * (lo[g] + hi[g]);
+        moving = moving || (mid[g] > lo[g] && mid[g] < hi[g]);
+      }
+      if (!moving) break;  // the same test on every rank: the same values everywhere
+      std::fill(below.begin(), below.end(), 0);
+      for (int i = 0; i < n; ++i) {
+        const int g = slot_of_node[node_of[i]];
+        if (g >= 0 && owned.position[i][axis[g]] < mid[g]) below[g] += owned.work[i];
+      }
+      ranks_.sum(below);
+      for (int g = 0; g < m; ++g) {
+        if (total[g] == 0) continue;  // no work: cut in the middle
+        (below[g] < target[g] ? lo[g] : hi[g]) = mid[g];
+      }
+    }
+    for (int g = 0; g < m; ++g) {
+      const Region& r = cutting[g];
+      const double cut =
+          total[g] == 0 ? 0.5 * (r.search_lower[axis[g]] + r.search_upper[axis[g]]) : hi[g];
+      const int left = static_cast<int>(nodes_.size());
+      nodes_.push_back(Node{});
+      nodes_.push_back(Node{});
+      Node& node = nodes_[r.node];
+      node.axis = axis[g];
+      node.cut = cut;
+      node.child[0] = left;
+      node.child[1] = left + 1;
+      Region below_cut = r, above_cut = r;
+      below_cut.node = left;
+      below_cut.count = r.count / 2;
+      below_cut.upper[axis[g]] = below_cut.search_upper[axis[g]] = cut;
+      above_cut.node = left + 1;
+      above_cut.first = r.first + r.count / 2;
+      above_cut.count = r.count - r.count / 2;
+      above_cut.lower[axis[g]] = above_cut.search_lower[axis[g]] = cut;
+      next.push_back(below_cut);
+      next.push_back(above_cut);
+    }
+    for (int i = 0; i < n; ++i) {
+      const Node& node = nodes_[node_of[i]];
+      if (node.axis >= 0) node_of[i] = node.child[owned.position[i][node.axis] < node.cut ? 0 : 1];
+    }
+    level = std::move(next);
+  }
+  return migrate(owned);
+}
+
+void DomainDecomposition::pack(const ParticleSet& from, int i, const Vector3& shift, int rank) {
+  std::vector<double>& out = send_buffer_[rank];
+  const Vector3 p = from.position[i] + shift;
+  out.push_back(bitsOf(from.id[i]));
+  out.push_back(p.x());
+  out.push_back(p.y());
+  out.push_back(p.z());
+  out.push_back(bitsOf(from.work[i]));
+  const auto first = from.payload.begin() + static_cast<std::ptrdiff_t>(i) * from.payload_width;
+  out.insert(out.end(), first, first + from.payload_width);
+}
+
+ExchangeStats DomainDecomposition::sendPacked(ParticleSet& into) {
+  const std::size_t record = 5 + static_cast<std::size_t>(into.payload_width);
+  ExchangeStats stats;
+  for (int r = 0; r < ranks_.size(); ++r) {
+    if (r == ranks_.rank()) continue;
+    stats.particles += static_cast<std::int64_t>(send_buffer_[r].size() / record);
+    stats.bytes += static_cast<std::int64_t>(send_buffer_[r].size() * sizeof(double));
+  }
+  ranks_.exchange(send_buffer_, receive_buffer_);
+  for (std::vector<double>& buffer : send_buffer_) buffer.clear();
+  for (const std::vector<double>& in : receive_buffer_) {
+    if (in.size() % record != 0)
+      ranks_.abort("sweep: an exchange of particles arrived with a record of another width", 1);
+    for (std::size_t k = 0; k < in.size(); k += record) {
+      into.id.push_back(integerOf(in[k]));
+      into.position.emplace_back(in[k + 1], in[k + 2], in[k + 3]);
+      into.work.push_back(integerOf(in[k + 4]));
+      into.payload.insert(into.payload.end(), in.begin() + static_cast<std::ptrdiff_t>(k + 5),
+                          in.begin() + static_cast<std::ptrdiff_t>(k + record));
+    }
+  }
+  return stats;
+}
+
+ExchangeStats DomainDecomposition::migrate(ParticleSet& owned) {
+  const int me = ranks_.rank(), n = owned.size();
+  const int width = owned.payload_width;
+  int kept = 0;
+  for (int i = 0; i < n; ++i) {
+    owned.position[i] = wrapped(owned.position[i]);
+    const int to = nodes_[leafOf(owned.position[i])].rank;
+    if (to != me) {
+      pack(owned, i, Vector3::Zero(), to);
+      continue;
+    }
+    if (kept != i) {  // compacted in place, in order
+      owned.id[kept] = owned.id[i];
+      owned.position[kept] = owned.position[i];
+      owned.work[kept] = owned.work[i];
+      std::copy_n(owned.payload.begin() + static_cast<std::ptrdiff_t>(i) * width, width,
+                  owned.payload.begin() + static_cast<std::ptrdiff_t>(kept) * width);
+    }
+    ++kept;
+  }
+  owned.id.resize(kept);
+  owned.position.resize(kept);
+  owned.work.resize(kept);
+  owned.payload.resize(static_cast<std::size_t>(kept) * width);
+  return sendPacked(owned);
+}
+
+ExchangeStats DomainDecomposition::exchangeGhosts(const ParticleSet& owned, ParticleSet& ghosts) {
+  ghosts.clear();
+  ghosts.payload_width = owned.payload_width;
+  const int me = ranks_.rank();
+  const double w = settings_.ghost_width;
+  std::vector<int> ranks;
+  for (int i = 0; i < owned.size(); ++i) {
+    const Vector3 p = owned.position[i];
+    // the shifts of the images near a periodic face: 0, and +-period along each such axis
+    double shifts[3][2];
+    int shift_count[3];
+    for (int a = 0; a < 3; ++a) {
+      shifts[a][0] = 0.0;
+      shift_count[a] = 1;
+      if (!settings_.periodic[a]) continue;
+      const double period = settings_.upper[a] - settings_.lower[a];
+      if (p[a] - settings_.lower[a] < w)
+        shifts[a][shift_count[a]++] = period;
+      else if (settings_.upper[a] - p[a] <= w)
+        shifts[a][shift_count[a]++] = -period;
+    }
+    for (int sx = 0; sx < shift_count[0]; ++sx)
+      for (int sy = 0; sy < shift_count[1]; ++sy)
+        for (int sz = 0; sz < shift_count[2]; ++sz) {
+          const Vector3 shift(shifts[0][sx], shifts[1][sy], shifts[2][sz]);
+          const Vector3 q = p + shift;
+          ranks.clear();
+          ranksMeeting(q - Vector3::Constant(w), q + Vector3::Constant(w), ranks);
+          const bool image = sx + sy + sz > 0;
+          for (int r : ranks) {
+            if (r == me && !image) continue;
+            if (r == me) {
+              ghosts.append(owned, i, shift);
+            } else {
+              pack(owned, i, shift, r);
+            }
+          }
+        }
+  }
+  return sendPacked(ghosts);
+}
+
+}  // namespace sweep
