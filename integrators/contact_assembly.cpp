@@ -33,12 +33,12 @@ void ProblemAssembly::run(const std::vector<char>* deferred, int threads) {
   p.rolling = J.rolling;
   p.bilateral.clear();
   if (p.dimension == 3) findFreeParticles(model, data, cmodel, ws);  // before threads read it
-  for (std::size_t i = 0; i < ws.component_parent.size(); ++i)
-    ws.component_parent[i] = static_cast<int>(i);
+  forEachIndex(static_cast<int>(ws.component_parent.size()), threads,
+               [&](int i) { ws.component_parent[i] = i; });
   writeContactRows(deferred, threads);
   appendJointLimits();
   appendConstraints();
-  numberIslands();
+  numberIslands(threads);
   if (position_level) {  // no driven body's velocity, and so no restitution term either
     std::fill(p.known.begin(), p.known.end(), Vector3::Zero());
     std::fill(p.rolling_known.begin(), p.rolling_known.end(), Vector2::Zero());
@@ -90,15 +90,34 @@ void ProblemAssembly::sizeEntries(int entries, int minv_entries) {
   p.rolling_minv_h.resize(p.rolling ? minv_entries : 0);
 }
 
+// The union-find links a root under the smaller one, so every root is the smallest component
+// of its set: the sets and their roots do not depend on the order of the joins, and rows may
+// join on several threads at once (Anderson & Woll's wait-free scheme, a compare-and-swap per
+// link; path halving's stores may race, and any value they leave is still an ancestor).
 int ProblemAssembly::root(int c) {
-  while (ws.component_parent[c] != c)
-    c = ws.component_parent[c] = ws.component_parent[ws.component_parent[c]];
-  return c;
+  int* parent = ws.component_parent.data();
+  for (;;) {
+    const int up = __atomic_load_n(&parent[c], __ATOMIC_ACQUIRE);
+    if (up == c) return c;
+    const int above = __atomic_load_n(&parent[up], __ATOMIC_ACQUIRE);
+    if (above != up) __atomic_store_n(&parent[c], above, __ATOMIC_RELEASE);
+    c = above;
+  }
 }
 
 void ProblemAssembly::join(int first, int second) {
-  const int a = root(first), b = root(second);
-  if (a != b) ws.component_parent[std::max(a, b)] = std::min(a, b);
+  int* parent = ws.component_parent.data();
+  for (;;) {
+    int a = root(first), b = root(second);
+    if (a == b) return;
+    if (a < b) std::swap(a, b);  // a, the larger root, goes under b
+    int expected = a;
+    if (__atomic_compare_exchange_n(&parent[a], &expected, b, false, __ATOMIC_ACQ_REL,
+                                    __ATOMIC_ACQUIRE))
+      return;
+    first = a;  // a gained a parent meanwhile: join from where it went
+    second = b;
+  }
 }
 
 void ProblemAssembly::joinComponents(const std::vector<int>& touched) {
@@ -313,12 +332,16 @@ void ProblemAssembly::appendConstraints() {
   if (!p.bilateral.empty()) p.bilateral.resize(p.size(), 0);
 }
 
-void ProblemAssembly::numberIslands() {
+void ProblemAssembly::numberIslands(int threads) {
   const int n = p.size();
-  for (int c = 0; c < n; ++c) {
+  if (n < kParallelItems) threads = 1;
+  parallelFor(n, threads, [&](int c) {
     const std::array<int, 2>& moved = p.row_components[c];
     if (moved[0] >= 0 && moved[1] >= 0) join(moved[0], moved[1]);
-  }
+  });
+  // every row's root, once the joins are done
+  ws.row_root.resize(n);
+  parallelFor(n, threads, [&](int c) { ws.row_root[c] = root(ws.row_component[c]); });
 
   // islands numbered in order of their first row: deterministic
   std::fill(ws.island_of_root.begin(), ws.island_of_root.end(), -1);
@@ -326,7 +349,7 @@ void ProblemAssembly::numberIslands() {
   island_begin.assign(1, 0);
   int islands = 0;
   for (int c = 0; c < n; ++c) {
-    int& id = ws.island_of_root[root(ws.row_component[c])];
+    int& id = ws.island_of_root[ws.row_root[c]];
     if (id < 0) {
       id = islands++;
       island_begin.push_back(0);
@@ -336,8 +359,7 @@ void ProblemAssembly::numberIslands() {
   for (int i = 0; i < islands; ++i) island_begin[i + 1] += island_begin[i];
   p.island_rows.resize(n);
   ws.touched.assign(island_begin.begin(), island_begin.end() - 1);  // fill cursors
-  for (int c = 0; c < n; ++c)
-    p.island_rows[ws.touched[ws.island_of_root[root(ws.row_component[c])]]++] = c;
+  for (int c = 0; c < n; ++c) p.island_rows[ws.touched[ws.island_of_root[ws.row_root[c]]]++] = c;
 }
 
 void assembleContactProblem(const Model& model, const Data& data, const ContactModel& cmodel,

@@ -78,9 +78,10 @@ struct ProblemAssembly {
   // the command that replaces constraint k's drive, or null
   const ActuatorCommand* commandedMotion(int constraint) const;
 
-  // the rows of two components or fewer joined (the others were, as they were made), then
-  // islands numbered in order of their first row: deterministic
-  void numberIslands();
+  // the rows of two components or fewer joined (the others were, as they were made; on
+  // threads from kParallelItems rows), then islands numbered in order of their first row:
+  // deterministic
+  void numberIslands(int threads);
 
   // one row block: H entries already pushed; computes M^-1 H, W_cc, velocities and bias
   // W_cc = H^T M^-1 H and W_r of a diagonal row (M^-1 H is H scaled), summed over its

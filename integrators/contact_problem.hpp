@@ -426,6 +426,7 @@ struct ContactProblemWorkspace {
   std::vector<int> row_minv_entries;             // per detected contact: its M^-1 H entries
   std::vector<int> row_component;                // islands: a component of each row
   std::vector<int> component_parent;             // islands: union-find over components
+  std::vector<int> row_root;                     // islands: the root of each row's component
   std::vector<int> island_of_root;
   // A general row's scratch, one per thread of the assembly (the first serves the serial rows)
   struct EntryRowScratch {
