@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -72,6 +73,20 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
   if (s.compact_sphere_rows)
     out << (*s.compact_sphere_rows ? ", compact sphere rows" : ", body-form sphere rows");
   out << "\n";
+}
+
+// Started by mpirun / mpiexec as one of several processes, every one would run the whole scene
+// and write the same files: refused (issue #49: runs on ranks are not built yet). The launchers
+// name the process count in the environment (Open MPI, MPICH's Hydra, MVAPICH, Slurm's PMI).
+void refuseSeveralRanks() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MV2_COMM_WORLD_SIZE"}) {
+    const char* value = std::getenv(name);
+    if (value == nullptr || std::atol(value) <= 1) continue;
+    throw sweep::InputError(std::string("started as one of ") + value + " MPI processes (" + name +
+                            "=" + value +
+                            "): sweep runs in one process, every process would write the same "
+                            "files; start one and use its cores with --threads N");
+  }
 }
 
 void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {
@@ -205,6 +220,7 @@ static int runCommand(int argc, char** argv) {
   }
 
   try {
+    if (run->parsed() || bench->parsed()) refuseSeveralRanks();
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())
       throw sweep::InputError("--out: must name a folder, got ''");

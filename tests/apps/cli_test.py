@@ -179,6 +179,23 @@ class Inputs(unittest.TestCase):
                 self.assertIn(f"--threads: must be in [0, 1024] (0: every core), got {count}",
                               r.stderr)
 
+    def test_several_mpi_processes_are_refused_before_any_output(self):
+        out = tempfile.mkdtemp(prefix="sweep_ranks_")
+        self.addCleanup(shutil.rmtree, out, ignore_errors=True)
+        for name in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE"):
+            env = dict(os.environ, **{name: "4"})
+            r = subprocess.run([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet"],
+                               cwd=SCENES, capture_output=True, text=True, timeout=600, env=env)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(f"started as one of 4 MPI processes ({name}=4)", r.stderr)
+            self.assertEqual(os.listdir(out), [])
+        # one process under a launcher runs as usual
+        env = dict(os.environ, OMPI_COMM_WORLD_SIZE="1")
+        r = subprocess.run([SWEEP, "run", "small_box.yaml", "--out", out, "--quiet",
+                            "--t-end", "0.002"], cwd=SCENES, capture_output=True, text=True,
+                           timeout=600, env=env)
+        self.assertEqual(r.returncode, 0, r.stderr)
+
     def test_set_and_options_override_the_scene(self):
         out = scratch_dir(self, "sweep_set_")
         r = sweep("run", "small_box.yaml", "--out", out, "--quiet", "--set", "time.end=0.005",
