@@ -311,25 +311,39 @@ ExchangeStats DomainDecomposition::balance(ParticleSet& owned) {
     }
     ranks_.sum(total);
     for (int g = 0; g < m; ++g) target[g] = total[g] * (cutting[g].count / 2) / cutting[g].count;
-    // bisection on every region's cut at once: work below mid against the target
-    std::vector<std::int64_t> below(m);
-    for (int halving = 0; halving < 100; ++halving) {
-      std::vector<double> mid(m);
-      bool moving = false;
-      for (int g = 0; g < m; ++g) {
-        mid[g] = 0.5 * (lo[g] + hi[g]);
-        moving = moving || (mid[g] > lo[g] && mid[g] < hi[g]);
-      }
-      if (!moving) break;  // the same test on every rank: the same values everywhere
-      std::fill(below.begin(), below.end(), 0);
+    // Every region's cut at once, by histograms: the work in kBins bins across [lo, hi) (and
+    // below lo), summed over the ranks, gives the bin where the work below reaches the target;
+    // that bin is the next round's [lo, hi). Four rounds of 256 bins place the cut within
+    // 2.3e-10 of the region's extent for four all-reduces, where bisection took one each halving.
+    constexpr int kBins = 256, kRounds = 4;
+    const int stride = kBins + 1;  // slot 0: the work below lo
+    std::vector<std::int64_t> histogram(static_cast<std::size_t>(m) * stride);
+    for (int round = 0; round < kRounds; ++round) {
+      std::fill(histogram.begin(), histogram.end(), 0);
       for (int i = 0; i < n; ++i) {
         const int g = slot_of_node[node_of[i]];
-        if (g >= 0 && owned.position[i][axis[g]] < mid[g]) below[g] += owned.work[i];
+        if (g < 0) continue;
+        const double x = owned.position[i][axis[g]];
+        if (!(x < hi[g])) continue;
+        const double scaled = (x - lo[g]) / (hi[g] - lo[g]) * kBins;
+        const int slot = x < lo[g] ? 0 : 1 + std::min(kBins - 1, static_cast<int>(scaled));
+        histogram[static_cast<std::size_t>(g) * stride + slot] += owned.work[i];
       }
-      ranks_.sum(below);
+      ranks_.sum(histogram);
       for (int g = 0; g < m; ++g) {
-        if (total[g] == 0) continue;  // no work: cut in the middle
-        (below[g] < target[g] ? lo[g] : hi[g]) = mid[g];
+        if (total[g] == 0 || !(hi[g] > lo[g])) continue;  // no work: cut in the middle
+        const std::int64_t* h = histogram.data() + static_cast<std::size_t>(g) * stride;
+        std::int64_t below = h[0];
+        int k = 0;
+        while (k < kBins && below + h[1 + k] < target[g]) below += h[1 + k++];
+        if (k == kBins) {  // short of the target below hi: the cut is hi
+          lo[g] = hi[g];
+          continue;
+        }
+        const double width = (hi[g] - lo[g]) / kBins;
+        const double bin_lower = lo[g] + k * width;
+        if (k < kBins - 1) hi[g] = lo[g] + (k + 1) * width;
+        lo[g] = bin_lower;
       }
     }
     for (int g = 0; g < m; ++g) {

@@ -10,8 +10,8 @@
 //   across its longest axis where the work below the cut is floor(k / 2) / k of the region's,
 //   and each side is cut again. Work is an integer per particle (1 plus its contacts, say),
 //   so the sums are exact and every rank finds the same cuts, whatever the order of its
-//   particles. The cut is found by bisection on the coordinate: one all-reduce of every
-//   region's sum per halving, 2 x 50 at most per level.
+//   particles. The cuts of one level are found together from histograms of the work along
+//   their axes: four all-reduces a level.
 // - A particle belongs to the region that holds its centre; the outer faces of a non-periodic
 //   domain reach to infinity (a grain that leaves the box stays owned). Along a periodic axis
 //   the centre is first wrapped into the period [lower, upper).
