@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -31,10 +33,18 @@ int main(int argc, char** argv) {
   std::vector<std::string> overrides;
   for (int k = 3; k < argc; ++k) {
     const std::string arg = argv[k];
-    if (arg.rfind("GHOST=", 0) == 0)
-      ghost_width = std::stod(arg.substr(6));
-    else
+    if (arg.rfind("GHOST=", 0) == 0) {
+      char* end = nullptr;
+      ghost_width = std::strtod(arg.c_str() + 6, &end);
+      if (end == arg.c_str() + 6 || *end != '\0' || !(ghost_width >= 0.0)) {
+        if (ranks.rank() == 0)
+          std::fprintf(stderr, "decomposition_bench: GHOST must be a width >= 0, got '%s'\n",
+                       arg.c_str() + 6);
+        return 2;
+      }
+    } else {
       overrides.push_back(arg);
+    }
   }
   try {
     sweep::SceneFile file = sweep::loadSceneFile(argv[1], overrides);
@@ -109,5 +119,7 @@ int main(int argc, char** argv) {
     return 0;
   } catch (const sweep::InputError& e) {
     ranks.abort((std::string("decomposition_bench: ") + e.what()).c_str(), 2);
+  } catch (const std::exception& e) {
+    ranks.abort((std::string("decomposition_bench: ") + e.what()).c_str(), 1);
   }
 }
