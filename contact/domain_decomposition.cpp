@@ -254,12 +254,21 @@ double DomainDecomposition::imbalance(const ParticleSet& owned) const {
 
 ExchangeStats DomainDecomposition::balance(ParticleSet& owned) {
   const int n = owned.size();
+  // a bad work on one rank is refused on every rank: the others would wait in the cuts' sums
+  std::vector<std::int64_t> bad{0};
+  std::vector<double> first_bad{kInfinity};
   for (int i = 0; i < n; ++i) {
     owned.position[i] = wrapped(owned.position[i]);
-    if (owned.work[i] < 1)
-      throw InputError("domain decomposition: particle " + std::to_string(owned.id[i]) +
-                       " has work " + std::to_string(owned.work[i]) + ", must be >= 1");
+    if (owned.work[i] >= 1) continue;
+    ++bad[0];
+    first_bad[0] = std::min(first_bad[0], static_cast<double>(owned.id[i]));
   }
+  ranks_.sum(bad);
+  ranks_.min(first_bad);
+  if (bad[0] > 0)
+    throw InputError("domain decomposition: " + std::to_string(bad[0]) +
+                     " particles have a work below 1, the first particle " +
+                     formatValue(first_bad[0]) + "; work must be >= 1");
   // A region being cut: its node, its ranks [first, first + count), and the box the cut is
   // searched in (the domain's, cut by the cuts above).
   struct Region {

@@ -228,6 +228,25 @@ TEST(DomainDecomposition, TheSameInputGivesTheSameBits) {
                          [](const Vector3& a, const Vector3& b) { return a == b; }));
 }
 
+// A work below 1 on one rank's particle is refused on every rank, none left waiting.
+TEST(DomainDecomposition, ABadWorkOnOneRankIsRefusedOnEvery) {
+  const RankGroup ranks = RankGroup::world();
+  DomainDecomposition dd(ranks, bedSettings(3));
+  ParticleSet owned = crowdedBed(ranks, bedSettings(3), 100);
+  if (ranks.rank() == ranks.size() - 1) owned.work[7] = 0;
+  std::string message;
+  try {
+    dd.balance(owned);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  const std::int64_t bad_id = (ranks.size() - 1) * 100L + 7;
+  EXPECT_NE(
+      message.find("1 particles have a work below 1, the first particle " + std::to_string(bad_id)),
+      std::string::npos)
+      << message;
+}
+
 TEST(DomainDecomposition, SettingsThatCannotWorkAreRefusedByName) {
   const RankGroup ranks = RankGroup::world();
   auto message = [&](DecompositionSettings s) -> std::string {
