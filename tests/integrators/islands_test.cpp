@@ -1,6 +1,6 @@
 // The contact islands on threads (integrators/contact_assembly.cpp, numberIslands): the rows'
-// union-find runs on every thread from 8192 rows, and must give the islands of one thread, in
-// the same order, and islands that are the connected sets of rows.
+// union-find runs on every thread from kParallelItems rows, and must give the islands of one
+// thread, in the same order, and islands that are the connected sets of rows.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,29 +8,44 @@
 #include <string>
 #include <vector>
 
-#include "apps/sweep/scene_file.hpp"
+#include "framework/parallel.hpp"
 #include "integrators/time_stepper.hpp"
+#include "models/scene_spec.hpp"
 
 namespace sweep {
 namespace {
 
-// 6 000 touching disks in two piles 2 cm apart (two islands: walls and floor are fixed),
-// stepped once (one sweep: the islands are the point): about 12 000 closed contacts
-SceneFile twoTouchingPiles(int threads) {
-  std::string text = R"(dimension: 2
-gravity: [0, -9.81]
-materials: {steel: {density: 7800}}
-contact: {friction: 0.3, restitution: 0}
-bodies:
-  - {name: floor, shape: half_plane, position: [0, 0], normal: [0, 1], fixed: true}
-  - {name: left, shape: half_plane, position: [0, 0], normal: [1, 0], fixed: true}
-  - {name: right, shape: half_plane, position: [0.8, 0], normal: [-1, 0], fixed: true}
-generators:
-  - {type: disks, name: a, material: steel, count: 3000, radius: 1e-3, region: {min: [0, 0], max: [0.39, 1.0]}, spacing: 1.0}
-  - {type: disks, name: b, material: steel, count: 3000, radius: 1e-3, region: {min: [0.41, 0], max: [0.8, 1.0]}, spacing: 1.0}
-scheme: {name: moreau-jean, coulomb: {max_iterations: 1}, threads: )";
-  text += std::to_string(threads) + "}\ntime: {step: 1e-4, end: 1e-4}\n";
-  return loadSceneText(text, "two_piles.yaml");
+// Two square lattices of 3 000 touching disks each, 2 cm apart on a floor between two walls:
+// two islands (floor and walls are fixed), about 12 000 closed contacts in the first step
+Scene twoTouchingPiles() {
+  SceneSpec spec;
+  spec.dimension = 2;
+  spec.materials.push_back({"steel", 7800.0});
+  spec.default_law = ContactLaw{0.3, 0.0};
+  auto wall = [&](const std::string& name, const Vector3& at, double angle) {
+    BodySpec body;
+    body.name = name;
+    body.kind = BodySpec::Kind::Fixed;
+    body.shape = Shape::halfPlane();
+    body.pose.translation = at;
+    body.pose.rotation = Eigen::AngleAxisd(angle, Vector3::UnitZ()).toRotationMatrix();
+    spec.bodies.push_back(body);
+  };
+  wall("floor", Vector3::Zero(), 0.0);
+  wall("left", Vector3::Zero(), -0.5 * M_PI);
+  wall("right", Vector3(0.41, 0.0, 0.0), 0.5 * M_PI);
+  const double r = 1e-3;
+  for (int pile = 0; pile < 2; ++pile)
+    for (int k = 0; k < 3000; ++k) {
+      BodySpec disk;
+      disk.name = "d" + std::to_string(pile) + "_" + std::to_string(k);
+      disk.shape = Shape::disk(r);
+      disk.material = "steel";
+      disk.pose.translation =
+          Vector3(pile * 0.21 + r + 2 * r * (k % 95), r + 2 * r * (k / 95), 0.0);
+      spec.bodies.push_back(disk);
+    }
+  return buildScene(spec);
 }
 
 struct Islands {
@@ -38,10 +53,13 @@ struct Islands {
   std::vector<std::array<int, 2>> components;
 };
 
-Islands islandsOn(int threads) {
-  SceneFile file = twoTouchingPiles(threads);
-  const Scene scene = buildSceneFile(file);
-  TimeStepper stepper(scene.model, scene.cmodel, file.run.scheme, scene.forces);
+Islands islandsOn(const Scene& scene, int threads) {
+  SchemeSettings settings;
+  settings.scheme = Scheme::MoreauJean;
+  settings.h = 1e-4;
+  settings.coulomb.max_iterations = 1;  // the islands are the point
+  settings.threads = threads;
+  TimeStepper stepper(scene.model, scene.cmodel, settings, scene.forces);
   stepper.reset(0.0, scene.q0, scene.v0);
   stepper.step();
   const ContactProblem& p = stepper.problem();
@@ -49,9 +67,10 @@ Islands islandsOn(int threads) {
 }
 
 TEST(Islands, ThreadsGiveTheIslandsOfOneThread) {
-  const Islands one = islandsOn(1);
+  const Scene scene = twoTouchingPiles();
+  const Islands one = islandsOn(scene, 1);
   const int n = static_cast<int>(one.rows.size());
-  ASSERT_GT(n, 8192) << "the union-find runs on threads from 8192 rows";
+  ASSERT_GT(n, kParallelItems) << "the union-find runs on threads from kParallelItems rows";
   ASSERT_GE(one.begin.size(), 3u) << "the two piles are two islands at least";
   // the islands are the connected sets of rows: a plain serial union-find over the rows'
   // components gives one root per island, a different one for each, and the islands come in
@@ -90,7 +109,7 @@ TEST(Islands, ThreadsGiveTheIslandsOfOneThread) {
     island_root.push_back(root);
   }
   for (int threads : {2, 3}) {
-    const Islands other = islandsOn(threads);
+    const Islands other = islandsOn(scene, threads);
     EXPECT_EQ(other.begin, one.begin) << threads << " threads";
     EXPECT_EQ(other.rows, one.rows) << threads << " threads";
   }
