@@ -29,7 +29,6 @@
 // and are meant to be held by every rank.
 #include <array>
 #include <cstdint>
-#include <memory>
 #include <vector>
 
 #include "framework/spatial.hpp"
@@ -132,6 +131,9 @@ class DomainDecomposition {
     int rank = 0;
   };
   Vector3 wrapped(const Vector3& position) const;
+  // wraps the centres into the period; a work below 1 on any rank throws on every rank (the
+  // others would wait in the cuts' sums)
+  void wrapAndCheckWork(ParticleSet& owned) const;
   int leafOf(const Vector3& wrapped_position) const;
   // the ranks whose region meets the box [lo, hi]
   void ranksMeeting(const Vector3& lo, const Vector3& hi, std::vector<int>& ranks) const;
