@@ -52,10 +52,25 @@ ContactData::ContactData(const Model& /*model*/, const ContactModel& cmodel)
     fcl = std::make_unique<FclScene>(cmodel);
   } else {
     classifyForGrid(cmodel, *this);
+    every_particle = particles;
     particle_center.resize(particles.size());
     particle_radius.resize(particles.size());
     for (std::size_t k = 0; k < particles.size(); ++k)
       particle_radius[k] = cmodel.geometries[particles[k]].shape.radius;
+  }
+}
+
+void restrictParticles(const ContactModel& cmodel, const std::vector<char>& body_marked,
+                       ContactData& cdata) {
+  if (cdata.fcl) return;
+  cdata.particles.clear();
+  cdata.particle_radius.clear();
+  for (const int g : cdata.every_particle) {
+    const BodyRef& body = cmodel.geometries[g].body;
+    if (!body_marked.empty() && !(body.kind == BodyRef::Kind::Dynamic && body_marked[body.index]))
+      continue;
+    cdata.particles.push_back(g);
+    cdata.particle_radius.push_back(cmodel.geometries[g].shape.radius);
   }
 }
 

@@ -53,8 +53,9 @@ struct ContactData {
   // and their sums (pair_contacts[k]: contacts of pairs [0, k))
   std::vector<std::vector<ContactPoint>> run_points;
   std::vector<int> pair_contacts;
-  std::vector<int> particles;  // grid path: geometries binned in the grid
-  std::vector<int> large;      // grid path: every other geometry
+  std::vector<int> particles;       // grid path: geometries binned in the grid
+  std::vector<int> every_particle;  // grid path: the particles before restrictParticles
+  std::vector<int> large;           // grid path: every other geometry
   // grid path: positions in `large` of the geometries with dofs, ascending. Two frozen shapes
   // never collide, and a scene may hold thousands (a rough plate's spheres): the wall-wall
   // pairs are looked for only where one side moves.
@@ -70,6 +71,12 @@ struct ContactData {
 // at time t.
 void updateGeometryPoses(const Model& model, const Data& data, const ContactModel& cmodel, double t,
                          ContactData& cdata);
+
+// Grid path: bins only the particles whose body is marked (a rank's own and ghost grains in
+// a distributed run, integrators/distributed_stepper.hpp); an empty mark bins every particle.
+// The other geometries are not restricted.
+void restrictParticles(const ContactModel& cmodel, const std::vector<char>& body_marked,
+                       ContactData& cdata);
 
 // Largest speed of a shape point at (q, v) and t: |v_origin| + |w| * reach per geometry.
 // Needs forwardKinematics(model, data, q, v).

@@ -140,6 +140,10 @@ struct StepData {
   ContactData contact_data;  // 2: contacts and their Jacobian rows
   ContactProblem problem;    // 3: the rows of the solve
   ContactProblemWorkspace problem_ws;
+  // a distributed run (integrators/distributed_stepper.hpp): per body, whether this rank owns
+  // it. Detection keeps only the contacts whose first body with dofs this rank owns; empty:
+  // every contact.
+  std::vector<char> owned_body;
   SolverWorkspace solver_ws;
   StepStats stats;
 

@@ -256,6 +256,22 @@ void midpoint(const StepModel& m, StepData& d) {
   integrate(m.model, d.q, 0.5 * m.settings.h * d.v, d.q_m, m.threads);
 }
 
+namespace {
+// a contact belongs to the rank that owns its first body with dofs (the lower index)
+void keepOwnedContacts(const std::vector<char>& owned_body, std::vector<Contact>& contacts) {
+  auto owned = [&](const Contact& contact) {
+    int first = -1;
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic && (first < 0 || body->index < first))
+        first = body->index;
+    return first >= 0 && owned_body[first];
+  };
+  contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
+                                [&](const Contact& contact) { return !owned(contact); }),
+                 contacts.end());
+}
+}  // namespace
+
 void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   const auto start = Clock::now();
   const double t_m = d.t + 0.5 * m.settings.h;
@@ -266,6 +282,7 @@ void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   d.stats.margin = margins.others;
   d.stats.margin_balls = margins.balls;
   detectContacts(m.model, d.model_data, m.cmodel, d.contact_data, t_m, margins, m.threads);
+  if (!d.owned_body.empty()) keepOwnedContacts(d.owned_body, d.contact_data.contacts);
   std::swap(d.impulse, d.previous_impulse);
   d.impulse.assign(d.contact_data.contacts.size(), Vector3::Zero());
   const int contacts = static_cast<int>(d.contact_data.contacts.size());

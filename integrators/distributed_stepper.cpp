@@ -1,0 +1,504 @@
+#include "integrators/distributed_stepper.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "framework/error.hpp"
+#include "integrators/nlgs.hpp"
+
+namespace sweep {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+void refuse(const std::string& field, const std::string& why) {
+  throw InputError("distributed run: " + field + ": " + why);
+}
+}  // namespace
+
+DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& model,
+                                       const ContactModel& cmodel, const SchemeSettings& settings,
+                                       const DistributedSettings& distributed)
+    : ranks_(ranks),
+      settings_(distributed),
+      m_(model, cmodel, settings, {}),
+      d_(model, cmodel, m_.settings) {
+  if (cmodel.dimension != 3) refuse("dimension", "only 3D scenes run on ranks");
+  if (m_.settings.scheme != Scheme::MoreauJean)
+    refuse("scheme.name", "only moreau-jean runs on ranks");
+  if (m_.settings.screening)
+    refuse("scheme.screening", "candidate screening does not run on ranks");
+  if (m_.settings.projection.max_rounds > 0)
+    refuse("scheme.projection.max_rounds", "position projection does not run on ranks");
+  if (cmodel.settings.verify_margin && m_.settings.normal_law != NormalLaw::Vel)
+    refuse("detection.verify_margin", "re-detection on the end velocities does not run on ranks");
+  if (cmodel.adhesive()) refuse("contact laws", "adhesion does not run on ranks");
+  if (cmodel.path != DetectionPath::Analytic)
+    refuse("detection.path", "only the analytic (grid) path runs on ranks");
+  if (!model.actuators.empty() || !model.limits.empty() || !model.systems.empty() ||
+      !model.constraints.empty())
+    refuse("bodies", "actuators, joint limits, systems and constraints do not run on ranks");
+  if (settings_.sweeps_per_exchange < 1)
+    refuse("sweeps_per_exchange", std::to_string(settings_.sweeps_per_exchange) + " is below 1");
+  if (settings_.rebalance_interval < 0)
+    refuse("rebalance_interval", std::to_string(settings_.rebalance_interval) + " is negative");
+  if (!(settings_.ghost_width >= 0.0))
+    refuse("ghost_width", std::to_string(settings_.ghost_width) + " is not a width");
+  findFreeParticles(model, d_.model_data, cmodel, d_.problem_ws);
+  const auto& spheres = d_.problem_ws.sphere_particles;
+  for (const Component& c : model.components) {
+    const Body& body = model.bodies[c.first_body];
+    if (c.end_body != c.first_body + 1 || spheres[c.first_body].v_index < 0)
+      refuse("bodies", "'" + body.name +
+                           "' is not a free sphere: only free spheres (and bodies without dofs) "
+                           "run on ranks");
+    particle_body_.push_back(c.first_body);
+    nq_ = c.nq;
+    nv_ = c.nv;
+  }
+  for (const Geometry& g : cmodel.geometries)
+    if (g.body.kind == BodyRef::Kind::Dynamic)
+      largest_diameter_ = std::max(largest_diameter_, 2.0 * g.shape.radius);
+  const std::size_t bodies = model.bodies.size();
+  base_inverse_mass_.assign(bodies, 0.0);
+  base_inverse_inertia_.assign(bodies, 0.0);
+  for (const int b : particle_body_) {
+    base_inverse_mass_[b] = spheres[b].inverse_mass;
+    base_inverse_inertia_[b] = spheres[b].inverse_inertia;
+  }
+  local_.assign(bodies, 0);
+  owner_.assign(bodies, -1);
+  touched_.assign(bodies, 0);
+  multiplicity_.assign(bodies, 1.0);
+  glued_index_.assign(bodies, -1);
+  contact_count_.assign(bodies, 0);
+  const auto size = static_cast<std::size_t>(ranks_.size());
+  touch_out_.resize(size);
+  touch_in_.resize(size);
+  send_.resize(size);
+  receive_.resize(size);
+}
+
+void DistributedStepper::writeState(const ParticleSet& set, int i) {
+  const Body& body = m_.model.bodies[set.id[i]];
+  const double* payload = set.payload.data() + static_cast<std::size_t>(i) * (nq_ + nv_);
+  for (int k = 0; k < nq_; ++k) d_.q[body.q_index + k] = payload[k];
+  for (int k = 0; k < nv_; ++k) d_.v[body.v_index + k] = payload[nq_ + k];
+}
+
+void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
+  stepping::reset(m_, d_, t, q, v);
+  d_.owned_body.assign(m_.model.bodies.size(), 0);
+  DecompositionSettings ds;
+  ds.dimension = 3;
+  Eigen::AlignedBox3d box;
+  for (const int b : particle_body_) {
+    const Body& body = m_.model.bodies[b];
+    box.extend(body.joint_placement.translation + q.segment<3>(body.q_index));
+  }
+  if (box.isEmpty()) box.extend(Vector3::Zero());
+  ds.lower = box.min() - Vector3::Constant(largest_diameter_);
+  ds.upper = box.max() + Vector3::Constant(largest_diameter_);
+  const Periodicity& periodic = m_.cmodel.settings.periodic;
+  if (periodic.enabled()) {
+    ds.periodic[periodic.axis] = true;
+    ds.lower[periodic.axis] = periodic.low;
+    ds.upper[periodic.axis] = periodic.high;
+  }
+  ds.ghost_width = settings_.ghost_width > 0.0 ? settings_.ghost_width : 2.0 * largest_diameter_;
+  decomposition_.emplace(ranks_, ds);
+  owned_.clear();
+  owned_.payload_width = nq_ + nv_;
+  ghosts_.clear();
+  std::fill(contact_count_.begin(), contact_count_.end(), 0);
+  if (ranks_.rank() == 0) {  // rank 0 holds every grain until the first balance
+    for (const int b : particle_body_) {
+      owned_.id.push_back(b);
+      owned_.position.emplace_back();
+      owned_.work.push_back(1);
+    }
+    owned_.payload.resize(owned_.id.size() * (nq_ + nv_));
+  }
+  balance_now_ = true;
+  steps_ = 0;
+}
+
+void DistributedStepper::refreshOwnership() {
+  const int width = nq_ + nv_;
+  for (int i = 0; i < owned_.size(); ++i) {
+    const Body& body = m_.model.bodies[owned_.id[i]];
+    owned_.position[i] = body.joint_placement.translation + d_.q.segment<3>(body.q_index);
+    owned_.work[i] = 1 + contact_count_[owned_.id[i]];
+    double* payload = owned_.payload.data() + static_cast<std::size_t>(i) * width;
+    for (int k = 0; k < nq_; ++k) payload[k] = d_.q[body.q_index + k];
+    for (int k = 0; k < nv_; ++k) payload[nq_ + k] = d_.v[body.v_index + k];
+  }
+  const bool rebalance = balance_now_ || (settings_.rebalance_interval > 0 &&
+                                          steps_ % settings_.rebalance_interval == 0);
+  balance_now_ = false;
+  const ExchangeStats moved =
+      rebalance ? decomposition_->balance(owned_) : decomposition_->migrate(owned_);
+  bytes_ += moved.bytes;
+  std::fill(d_.owned_body.begin(), d_.owned_body.end(), 0);
+  for (int i = 0; i < owned_.size(); ++i) {
+    d_.owned_body[owned_.id[i]] = 1;
+    writeState(owned_, i);
+  }
+  // what this rank does not own is at rest until a ghost exchange brings it
+  for (const int b : particle_body_)
+    if (!d_.owned_body[b]) d_.v.segment(m_.model.bodies[b].v_index, nv_).setZero();
+}
+
+void DistributedStepper::receiveGhosts() {
+  bytes_ += decomposition_->exchangeGhosts(owned_, ghosts_).bytes;
+  for (const int b : local_bodies_) local_[b] = 0;
+  local_bodies_.clear();
+  for (int i = 0; i < owned_.size(); ++i) {
+    const int b = static_cast<int>(owned_.id[i]);
+    local_[b] = 1;
+    owner_[b] = ranks_.rank();
+    local_bodies_.push_back(b);
+  }
+  for (int i = 0; i < ghosts_.size(); ++i) {
+    const int b = static_cast<int>(ghosts_.id[i]);
+    if (local_[b]) continue;  // an image of an own grain, or a second image
+    local_[b] = 1;
+    owner_[b] = decomposition_->owner(ghosts_.position[i]);
+    local_bodies_.push_back(b);
+    writeState(ghosts_, i);
+  }
+  restrictParticles(m_.cmodel, local_, d_.contact_data);
+}
+
+void DistributedStepper::findSharedBodies() {
+  for (const int b : touched_list_) touched_[b] = 0;
+  touched_list_.clear();
+  for (const Contact& contact : d_.contact_data.contacts)
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic && !touched_[body->index]) {
+        touched_[body->index] = 1;
+        touched_list_.push_back(body->index);
+      }
+  std::sort(touched_list_.begin(), touched_list_.end());
+  const int size = ranks_.size(), rank = ranks_.rank();
+  for (int r = 0; r < size; ++r) {
+    touch_out_[r].clear();
+    send_[r].clear();
+  }
+  for (const int b : touched_list_)
+    if (owner_[b] != rank) {
+      touch_out_[owner_[b]].push_back(b);
+      send_[owner_[b]].push_back(b);
+    }
+  auto sent = [&] {
+    std::int64_t doubles = 0;
+    for (const auto& part : send_) doubles += static_cast<std::int64_t>(part.size());
+    bytes_ += 8 * doubles;
+  };
+  sent();
+  ranks_.exchange(send_, receive_);
+  for (const int b : glued_) glued_index_[b] = -1;
+  glued_.clear();
+  for (const int b : touched_list_) multiplicity_[b] = 1.0;
+  for (int r = 0; r < size; ++r) {
+    touch_in_[r].clear();
+    for (const double id : receive_[r]) {
+      const int b = static_cast<int>(id);
+      touch_in_[r].push_back(b);
+      if (glued_index_[b] < 0) {  // the first rank that touches one of this rank's bodies
+        glued_index_[b] = static_cast<int>(glued_.size());
+        glued_.push_back(b);
+        multiplicity_[b] = touched_[b] ? 1.0 : 0.0;
+      }
+      multiplicity_[b] += 1.0;
+    }
+  }
+  for (int r = 0; r < size; ++r) {
+    send_[r].clear();
+    for (const int b : touch_in_[r]) send_[r].push_back(multiplicity_[b]);
+  }
+  sent();
+  ranks_.exchange(send_, receive_);
+  for (int r = 0; r < size; ++r)
+    for (std::size_t k = 0; k < touch_out_[r].size(); ++k) {
+      const int b = touch_out_[r][k];
+      multiplicity_[b] = receive_[r][k];
+      glued_index_[b] = static_cast<int>(glued_.size());
+      glued_.push_back(b);
+    }
+  split_.clear();
+  for (const int b : glued_)
+    if (touched_[b] && multiplicity_[b] > 1.0) split_.push_back(b);
+}
+
+void DistributedStepper::splitMasses(bool split) {
+  auto& spheres = d_.problem_ws.sphere_particles;
+  for (const int b : split_) {
+    const double n = split ? multiplicity_[b] : 1.0;
+    spheres[b].inverse_mass = n * base_inverse_mass_[b];
+    spheres[b].inverse_inertia = n * base_inverse_inertia_[b];
+  }
+}
+
+void DistributedStepper::glue(const VectorX& v_free, VectorX& v, double& mismatch) {
+  const int size = ranks_.size(), rank = ranks_.rank();
+  const auto nv = static_cast<std::size_t>(nv_);
+  // c = v_end - v_in of each glued body this rank's contacts touch
+  for (std::size_t g = 0; g < glued_.size(); ++g) {
+    const int b = glued_[g];
+    const int first = m_.model.bodies[b].v_index;
+    for (std::size_t k = 0; k < nv; ++k)
+      push_[g * nv + k] = touched_[b] ? v[first + k] - v_in_[g * nv + k] : 0.0;
+  }
+  std::int64_t doubles = 0;
+  for (int r = 0; r < size; ++r) {
+    send_[r].clear();
+    for (const int b : touch_out_[r])
+      for (std::size_t k = 0; k < nv; ++k)
+        send_[r].push_back(push_[static_cast<std::size_t>(glued_index_[b]) * nv + k]);
+    doubles += static_cast<std::int64_t>(send_[r].size());
+  }
+  ranks_.exchange(send_, receive_);
+  // the owner sums its own push, then the other ranks' in rank order: the same bits whatever
+  // the order of arrival
+  for (std::size_t g = 0; g < glued_.size(); ++g) {
+    const int b = glued_[g];
+    if (owner_[b] != rank) continue;
+    for (std::size_t k = 0; k < nv; ++k) glued_velocity_[g * nv + k] = push_[g * nv + k];
+  }
+  for (int r = 0; r < size; ++r)
+    for (std::size_t j = 0; j < touch_in_[r].size(); ++j) {
+      const auto g = static_cast<std::size_t>(glued_index_[touch_in_[r][j]]);
+      for (std::size_t k = 0; k < nv; ++k) glued_velocity_[g * nv + k] += receive_[r][j * nv + k];
+    }
+  for (std::size_t g = 0; g < glued_.size(); ++g) {
+    const int b = glued_[g];
+    if (owner_[b] != rank) continue;
+    const int first = m_.model.bodies[b].v_index;
+    for (std::size_t k = 0; k < nv; ++k)
+      glued_velocity_[g * nv + k] =
+          v_free[first + k] + glued_velocity_[g * nv + k] / multiplicity_[b];
+  }
+  for (int r = 0; r < size; ++r) {
+    send_[r].clear();
+    for (const int b : touch_in_[r])
+      for (std::size_t k = 0; k < nv; ++k)
+        send_[r].push_back(glued_velocity_[static_cast<std::size_t>(glued_index_[b]) * nv + k]);
+    doubles += static_cast<std::int64_t>(send_[r].size());
+  }
+  ranks_.exchange(send_, receive_);
+  for (int r = 0; r < size; ++r)
+    for (std::size_t j = 0; j < touch_out_[r].size(); ++j) {
+      const auto g = static_cast<std::size_t>(glued_index_[touch_out_[r][j]]);
+      for (std::size_t k = 0; k < nv; ++k) glued_velocity_[g * nv + k] = receive_[r][j * nv + k];
+    }
+  bytes_ += 8 * doubles;
+  // every copy takes the glued velocity; the next sweeps start from it less their own push
+  mismatch = 0.0;
+  for (std::size_t g = 0; g < glued_.size(); ++g) {
+    const int first = m_.model.bodies[glued_[g]].v_index;
+    for (std::size_t k = 0; k < nv; ++k) {
+      const double glued = glued_velocity_[g * nv + k];
+      // a spin difference counts as the speed it gives the surface of the largest grain
+      const double lever = k < 3 ? 1.0 : 0.5 * largest_diameter_;
+      if (touched_[glued_[g]])
+        mismatch = std::max(mismatch, lever * std::abs(glued - v[first + k]));
+      v[first + k] = glued;
+      v_in_[g * nv + k] = glued - push_[g * nv + k];
+    }
+  }
+}
+
+void DistributedStepper::solveAcrossRanks() {
+  const auto start = Clock::now();
+  VectorX& v = d_.v_free;  // becomes v_{k+1}
+  std::vector<std::int64_t> shared{static_cast<std::int64_t>(glued_.size())};
+  ranks_.sum(shared);
+  if (shared[0] == 0) {  // no body is touched by two ranks: each rank's solve is the whole
+    stepping::solveMoreauJean(m_, d_);
+    dstats_.exchanges = 0;
+    dstats_.mismatch = 0.0;
+    return;
+  }
+  const SolverSettings& whole = m_.settings.coulomb;
+  SolverSettings round = whole;
+  round.max_iterations = std::min(settings_.sweeps_per_exchange, whole.max_iterations);
+  const auto nv = static_cast<std::size_t>(nv_);
+  v_free_ = v;
+  push_.assign(glued_.size() * nv, 0.0);
+  glued_velocity_.assign(glued_.size() * nv, 0.0);
+  v_in_.resize(glued_.size() * nv);
+  for (std::size_t g = 0; g < glued_.size(); ++g)
+    for (std::size_t k = 0; k < nv; ++k)
+      v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
+  const double floor = m_.model.gravity.norm() * m_.settings.h;
+  int sweeps = 0, exchanges = 0, failures = 0;
+  long updates = 0;
+  double residual = 0.0, mismatch = 0.0;
+  bool converged = false;
+  for (;;) {
+    const SolverStats s = solveCoulombNlgs(d_.problem, round, d_.P, v, d_.solver_ws,
+                                           d_.problem.rolling ? &d_.R : nullptr);
+    sweeps += s.iterations;
+    updates += s.updates;
+    failures += s.local_failures;
+    residual = s.residual;
+    glue(v_free_, v, mismatch);
+    ++exchanges;
+    double scale = floor;  // the largest speed of a glued body's centre
+    for (std::size_t g = 0; g < glued_velocity_.size(); ++g)
+      if (g % nv < 3) scale = std::max(scale, std::abs(glued_velocity_[g]));
+    // one reduction: the worst mismatch relative to its scale, and whether any rank's sweeps
+    // stopped short of the tolerance
+    std::vector<double> worst{mismatch / scale, s.status == SolverStatus::Converged ? 0.0 : 1.0,
+                              s.status == SolverStatus::Failed ? 1.0 : 0.0};
+    ranks_.max(worst);
+    if (worst[2] > 0.0) break;
+    if (worst[1] == 0.0 && worst[0] <= whole.tolerance) {
+      converged = true;
+      break;
+    }
+    if (sweeps >= whole.max_iterations) break;
+    // the next sweeps start from v_free on every other local body, and re-apply P
+    for (const int b : local_bodies_) {
+      const int first = m_.model.bodies[b].v_index;
+      for (std::size_t k = 0; k < nv; ++k) v[first + k] = v_free_[first + k];
+    }
+    for (std::size_t g = 0; g < glued_.size(); ++g) {
+      const int first = m_.model.bodies[glued_[g]].v_index;
+      for (std::size_t k = 0; k < nv; ++k) v[first + k] = v_in_[g * nv + k];
+    }
+  }
+  d_.stats.iterations_stage1 = sweeps;
+  d_.stats.iterations_stage2 = 0;
+  d_.stats.updates = updates;
+  d_.stats.residual = residual;
+  d_.stats.local_failures = failures;
+  d_.stats.status = converged ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  if (!v.allFinite()) d_.stats.status = SolverStatus::Failed;
+  d_.stats.cap_hit = !converged;
+  d_.stats.t_solve = std::chrono::duration<double>(Clock::now() - start).count();
+  dstats_.exchanges = exchanges;
+  dstats_.mismatch = mismatch;
+}
+
+const StepStats& DistributedStepper::step() {
+  using namespace stepping;
+  d_.stats.step += 1;
+  d_.model_data.threads = m_.threads;
+  bytes_ = 0;
+  refreshOwnership();
+  receiveGhosts();
+  midpoint(m_, d_);
+  detect(m_, d_);
+  // the ghosts must hold every grain an owned grain may touch: one verdict on every rank
+  std::vector<double> margin{std::max(d_.stats.margin, d_.stats.margin_balls)};
+  ranks_.max(margin);
+  const double ghost_width = decomposition_->settings().ghost_width;
+  if (largest_diameter_ + margin[0] > ghost_width)
+    throw std::runtime_error(
+        "distributed run, step " + std::to_string(d_.stats.step) + ": the detection margin " +
+        std::to_string(margin[0]) + " m plus the largest diameter exceeds the ghost width " +
+        std::to_string(ghost_width) + " m; raise ghost_width or shorten the step");
+  freeVelocity(m_, d_);
+  findSharedBodies();
+  splitMasses(true);
+  assemble(m_, d_);
+  // a split mass reaches only the compact sphere rows, which read it from the workspace
+  for (int c = 0; c < d_.problem.size(); ++c) {
+    if (d_.problem.sphereForm(c) >= 0) continue;
+    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic && multiplicity_[body->index] > 1.0 &&
+          touched_[body->index])
+        throw std::logic_error("distributed run: a shared body's row is not a sphere row");
+  }
+  if (ranks_.size() == 1)
+    solveMoreauJean(m_, d_);
+  else
+    solveAcrossRanks();
+  keepImpulses(m_, d_);
+  splitMasses(false);
+  update(m_, d_);
+  wrapPeriodic(m_.cmodel, d_.q);
+  for (const int b : touched_list_) contact_count_[b] = 0;
+  for (int c = 0; c < d_.problem.size(); ++c) {
+    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic) ++contact_count_[body->index];
+  }
+  ++steps_;
+  reduceStats();
+  return d_.stats;
+}
+
+void DistributedStepper::reduceStats() {
+  // summed in rank order from a gather: the same bits on every rank and every repeat
+  double kinetic = 0.0;
+  for (int i = 0; i < owned_.size(); ++i) {
+    const Body& body = m_.model.bodies[owned_.id[i]];
+    const double* inverse = d_.model_data.constant_inverse_diagonal.data() + body.v_index;
+    for (int k = 0; k < nv_; ++k) {
+      const double vk = d_.v[body.v_index + k];
+      kinetic += 0.5 * vk * vk / inverse[k];
+    }
+  }
+  const std::vector<double> mine{static_cast<double>(d_.problem.size()),
+                                 static_cast<double>(d_.stats.iterations_stage1),
+                                 d_.stats.cap_hit ? 1.0 : 0.0,
+                                 d_.stats.residual,
+                                 kinetic,
+                                 static_cast<double>(bytes_),
+                                 static_cast<double>(split_.size()),
+                                 static_cast<double>(owned_.size()),
+                                 d_.stats.status == SolverStatus::Failed ? 1.0 : 0.0};
+  const std::vector<double> all = ranks_.gather(mine);
+  const std::size_t width = mine.size();
+  double active = 0.0, iterations = 0.0, cap = 0.0, residual = 0.0, energy = 0.0, bytes = 0.0,
+         shared = 0.0, most = 0.0, failed = 0.0;
+  for (std::size_t r = 0; r * width < all.size(); ++r) {
+    const double* x = all.data() + r * width;
+    active += x[0];
+    iterations = std::max(iterations, x[1]);
+    cap = std::max(cap, x[2]);
+    residual = std::max(residual, x[3]);
+    energy += x[4];
+    bytes += x[5];
+    shared += x[6];
+    most = std::max(most, x[7]);
+    failed = std::max(failed, x[8]);
+  }
+  d_.stats.active = static_cast<int>(active);
+  d_.stats.iterations_stage1 = static_cast<int>(iterations);
+  d_.stats.cap_hit = cap > 0.0;
+  d_.stats.residual = residual;
+  d_.stats.kinetic = energy;
+  if (failed > 0.0) d_.stats.status = SolverStatus::Failed;
+  dstats_.bytes_sent = static_cast<std::int64_t>(bytes);
+  dstats_.shared_bodies = static_cast<std::int64_t>(shared);
+  dstats_.imbalance =
+      most * ranks_.size() / std::max(1.0, static_cast<double>(particle_body_.size()));
+}
+
+void DistributedStepper::gatherState(VectorX& q, VectorX& v) const {
+  std::vector<double> mine;
+  for (int i = 0; i < owned_.size(); ++i) {
+    const Body& body = m_.model.bodies[owned_.id[i]];
+    mine.push_back(static_cast<double>(owned_.id[i]));
+    for (int k = 0; k < nq_; ++k) mine.push_back(d_.q[body.q_index + k]);
+    for (int k = 0; k < nv_; ++k) mine.push_back(d_.v[body.v_index + k]);
+  }
+  const std::vector<double> all = ranks_.gather(mine);
+  q = d_.q;
+  v = d_.v;
+  const std::size_t width = 1 + nq_ + nv_;
+  for (std::size_t i = 0; i + width <= all.size(); i += width) {
+    const Body& body = m_.model.bodies[static_cast<int>(all[i])];
+    for (int k = 0; k < nq_; ++k) q[body.q_index + k] = all[i + 1 + k];
+    for (int k = 0; k < nv_; ++k) v[body.v_index + k] = all[i + 1 + nq_ + k];
+  }
+}
+
+}  // namespace sweep
