@@ -48,15 +48,17 @@ struct CoulombSweep {
 
 SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& settings,
                           std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
-                          SolverWorkspace& ws, int n) {
+                          SolverWorkspace& ws, int n, bool velocity_holds_warm_start) {
   // packed 3D rows hold the rolling rows too: read so when R covers every row
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
   const RowReader rows(
       p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
   const bool coloured = colourForThreads(p, settings, rows.packed(), ws, n);
   // the warm start of the island's rows (the other islands move other velocities): a
-  // coloured island's chunk by chunk, as its sweeps go
-  if (coloured) {
+  // coloured island's chunk by chunk, as its sweeps go; none where v holds it already
+  if (velocity_holds_warm_start) {
+    // v = v_free + M^-1 H P
+  } else if (coloured) {
     forEachColourChunk(ws, settings.threads, [&](int chunk) {
       const int first = ws.chunk_begin[chunk], last = ws.chunk_begin[chunk + 1];
       warmStart(p, P, R, ws.order.data() + first, last - first, v);
@@ -83,13 +85,14 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
 
 SolverStats solveCoulombNlgs(const ContactProblem& p, const SolverSettings& settings,
                              std::vector<Vector3>& P, VectorX& v, SolverWorkspace& ws,
-                             std::vector<Vector2>* R) {
+                             std::vector<Vector2>* R, bool velocity_holds_warm_start) {
   SolverStats total;
   if (p.size() == 0) return total;
   prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
     const int n = selectIsland(p, island, ws);
-    SolverStats island_stats = coulombIsland(p, settings, P, R, v, ws, n);
+    SolverStats island_stats =
+        coulombIsland(p, settings, P, R, v, ws, n, velocity_holds_warm_start);
     island_stats.updates = static_cast<long>(island_stats.iterations) * n;
     mergeIsland(total, island_stats);
   }

@@ -6,7 +6,9 @@
 #include <string>
 
 #include "framework/error.hpp"
+#include "integrators/contact_laws.hpp"
 #include "integrators/nlgs.hpp"
+#include "integrators/rows.hpp"
 
 namespace sweep {
 
@@ -333,43 +335,47 @@ void DistributedStepper::solveAcrossRanks() {
   for (std::size_t g = 0; g < glued_.size(); ++g)
     for (std::size_t k = 0; k < nv; ++k)
       v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
-  const double floor = m_.model.gravity.norm() * m_.settings.h;
-  int sweeps = 0, exchanges = 0, failures = 0;
+  int sweeps = 0, exchanges = 0, failures = 0, rounds = 0;
   long updates = 0;
   double residual = 0.0, mismatch = 0.0;
   bool converged = false;
   for (;;) {
     const SolverStats s = solveCoulombNlgs(d_.problem, round, d_.P, v, d_.solver_ws,
-                                           d_.problem.rolling ? &d_.R : nullptr);
+                                           d_.problem.rolling ? &d_.R : nullptr, rounds > 0);
     sweeps += s.iterations;
     updates += s.updates;
     failures += s.local_failures;
-    residual = s.residual;
     glue(v_free_, v, mismatch);
     ++exchanges;
-    double scale = floor;  // the largest speed of a glued body's centre
-    for (std::size_t g = 0; g < glued_velocity_.size(); ++g)
-      if (g % nv < 3) scale = std::max(scale, std::abs(glued_velocity_[g]));
-    // one reduction: the worst mismatch relative to its scale, and whether any rank's sweeps
-    // stopped short of the tolerance
-    std::vector<double> worst{mismatch / scale, s.status == SolverStatus::Converged ? 0.0 : 1.0,
-                              s.status == SolverStatus::Failed ? 1.0 : 0.0};
-    ranks_.max(worst);
-    if (worst[2] > 0.0) break;
-    if (worst[1] == 0.0 && worst[0] <= whole.tolerance) {
+    // The single process's test on the whole problem: the relative natural-map residual of
+    // every rank's rows at the glued velocities, its sums gathered in rank order (the same
+    // verdict, to the bit, on every rank)
+    double f2 = 0.0, scale2 = 0.0;
+    const RowReader rows(d_.problem,
+                         RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
+    const std::vector<Vector2>* R = d_.problem.rolling ? &d_.R : nullptr;
+    for (int c = 0; c < d_.problem.size(); ++c)
+      rows.visit(c, [&](const auto& row) {
+        coulombResidualTerms(row, d_.P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
+      });
+    const std::vector<double> sums =
+        ranks_.gather({f2, scale2, s.status == SolverStatus::Failed ? 1.0 : 0.0});
+    double f2_all = 0.0, scale2_all = 0.0, failed = 0.0;
+    for (std::size_t r = 0; r + 3 <= sums.size(); r += 3) {
+      f2_all += sums[r];
+      scale2_all += sums[r + 1];
+      failed = std::max(failed, sums[r + 2]);
+    }
+    residual = scale2_all > 0.0 ? std::sqrt(f2_all / scale2_all) : std::sqrt(f2_all);
+    if (failed > 0.0) break;
+    if (residual < whole.tolerance) {
       converged = true;
       break;
     }
-    if (sweeps >= whole.max_iterations) break;
-    // the next sweeps start from v_free on every other local body, and re-apply P
-    for (const int b : local_bodies_) {
-      const int first = m_.model.bodies[b].v_index;
-      for (std::size_t k = 0; k < nv; ++k) v[first + k] = v_free_[first + k];
-    }
-    for (std::size_t g = 0; g < glued_.size(); ++g) {
-      const int first = m_.model.bodies[glued_[g]].v_index;
-      for (std::size_t k = 0; k < nv; ++k) v[first + k] = v_in_[g * nv + k];
-    }
+    // rounds, not this rank's sweeps, decide: every rank leaves the loop at the same glue
+    if (++rounds * round.max_iterations >= whole.max_iterations) break;
+    // the next sweeps resume from v, which glue() left at the glued velocities: every copy
+    // of a glued body holds v_in + its own push, and every other body v_free + its push
   }
   d_.stats.iterations_stage1 = sweeps;
   d_.stats.iterations_stage2 = 0;

@@ -13,10 +13,11 @@
 //   `sweeps_per_exchange` sweeps:
 //     v_b = v_free,b + (1 / n_b) sum_s c_b,s = v_free,b + M_b^-1 sum_s H_s^T P_s,
 //   the velocity of the whole body under every rank's impulses.
-// The solve stops when every rank's sweeps meet the solver's tolerance and the copies of every
-// glued body agree with their glued velocity to that tolerance, relative to the largest speed
-// of a glued body's centre (at least |g| h); a spin difference counts as the speed it gives
-// the surface of the largest grain. One rank runs the plain step.
+// The solve stops on the single process's test: the relative natural-map residual of every
+// rank's rows at the glued velocities, summed over the ranks, below the solver's tolerance.
+// After the first sweeps the solver resumes from the glued velocities without applying its
+// warm start again (solveCoulombNlgs, velocity_holds_warm_start). One rank runs the plain
+// step.
 //
 // Each step: the owners move with their particles (migration; rebalanced by work every
 // rebalance_interval steps), the copies within ghost_width of a rank's region arrive with q
@@ -38,8 +39,10 @@
 namespace sweep {
 
 struct DistributedSettings {
-  int sweeps_per_exchange = 5;  // NLGS sweeps between two glues of the shared bodies
-  int rebalance_interval = 0;   // steps between two rebalances by work; 0: at reset only
+  // NLGS sweeps between two glues of the shared bodies: 5 is the fastest of 2, 5 and 10 on the
+  // powder heap (docs/benchmarks.md, "Scheme A over ranks")
+  int sweeps_per_exchange = 5;
+  int rebalance_interval = 0;  // steps between two rebalances by work; 0: at reset only
   // the largest centre distance of two grains that may touch within a step (m); 0: twice the
   // largest diameter. A step whose detection margin does not fit in it throws on every rank.
   double ghost_width = 0.0;

@@ -26,9 +26,12 @@ namespace sweep {
 // v: in v_free, out the velocity after the impulses. P: in the warm start, out the impulses.
 // rolling (problems with rolling rows): in the warm start, out the rolling torque impulses,
 // bounded by rolling_bound times P_N and solved in the same sweeps.
+// velocity_holds_warm_start: v is already v_free + M^-1 H P (a solve resumed with the same
+// rows, integrators/distributed_stepper.hpp), and the warm start is not applied again.
 SolverStats solveCoulombNlgs(const ContactProblem& problem, const SolverSettings& settings,
                              std::vector<Vector3>& P, VectorX& v, SolverWorkspace& workspace,
-                             std::vector<Vector2>* rolling = nullptr);
+                             std::vector<Vector2>* rolling = nullptr,
+                             bool velocity_holds_warm_start = false);
 
 // Stage 5a by NLGS; arguments as solveNormalStage's (integrators/stage_solvers.hpp).
 SolverStats solveNormalStageNlgs(const ContactProblem& problem, const SolverSettings& settings,
