@@ -9,6 +9,7 @@
 #include "integrators/contact_laws.hpp"
 #include "integrators/nlgs.hpp"
 #include "integrators/rows.hpp"
+#include "integrators/sweeps.hpp"
 
 namespace sweep {
 
@@ -339,9 +340,17 @@ void DistributedStepper::solveAcrossRanks() {
   long updates = 0;
   double residual = 0.0, mismatch = 0.0;
   bool converged = false;
+  // the warm start of every rank glued before the first sweeps: each copy of a shared body
+  // starts with the other ranks' pushes of the last step, not from v_free
+  warm_order_.resize(static_cast<std::size_t>(d_.problem.size()));
+  for (int c = 0; c < d_.problem.size(); ++c) warm_order_[c] = c;
+  warmStart(d_.problem, d_.P, d_.problem.rolling ? &d_.R : nullptr, warm_order_.data(),
+            d_.problem.size(), v);
+  glue(v_free_, v, mismatch);
+  ++exchanges;
   for (;;) {
     const SolverStats s = solveCoulombNlgs(d_.problem, round, d_.P, v, d_.solver_ws,
-                                           d_.problem.rolling ? &d_.R : nullptr, rounds > 0);
+                                           d_.problem.rolling ? &d_.R : nullptr, true);
     sweeps += s.iterations;
     updates += s.updates;
     failures += s.local_failures;

@@ -15,9 +15,9 @@
 //   the velocity of the whole body under every rank's impulses.
 // The solve stops on the single process's test: the relative natural-map residual of every
 // rank's rows at the glued velocities, summed over the ranks, below the solver's tolerance.
-// After the first sweeps the solver resumes from the glued velocities without applying its
-// warm start again (solveCoulombNlgs, velocity_holds_warm_start). One rank runs the plain
-// step.
+// The warm start (the last step's impulses) is applied and glued before the first sweeps, and
+// the solver resumes from the glued velocities without applying it again (solveCoulombNlgs,
+// velocity_holds_warm_start). One rank runs the plain step.
 //
 // Each step: the owners move with their particles (migration; rebalanced by work every
 // rebalance_interval steps), the copies within ghost_width of a rank's region arrive with q
@@ -111,6 +111,7 @@ class DistributedStepper {
   // per glued body, nv_ each: this rank's push c = v_end - v_in, the glued velocity, and the
   // velocity the next sweeps start from
   std::vector<double> push_, glued_velocity_, v_in_;
+  std::vector<int> warm_order_;  // 0 .. rows - 1: the warm start's order
   std::vector<double> base_inverse_mass_, base_inverse_inertia_;  // per body, unsplit
   std::vector<int> split_;                   // bodies whose masses are split this step
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)
