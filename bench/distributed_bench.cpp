@@ -1,11 +1,11 @@
 // Scheme A over ranks (integrators/distributed_stepper.hpp) on a real scene from a saved
 // state: STEPS steps on every rank of the mpiexec, then one line with the ranks, grains, wall
-// time per step, bytes sent per step (all ranks), shared bodies and glues per step, the
+// time per step, bytes sent per step (all ranks), shared bodies and exchanges per step, the
 // slowest solve's sweeps per step, the cap hits and the work imbalance. With SERIAL=1 (one
 // rank) the plain TimeStepper runs the same steps instead: the single-process build's time.
 // Usage: [mpiexec -n R] distributed_bench SCENE.yaml STATE.csv STEPS [KEY=VALUE ...]
-//   KEY=VALUE as `sweep run --set`; SWEEPS=k sweeps between glues; REBALANCE=n steps between
-//   rebalances; SERIAL=1.
+//   KEY=VALUE as `sweep run --set`; INTERFACE=split for the split masses (RankInterface),
+//   SWEEPS=k their sweeps between glues; REBALANCE=n steps between rebalances; SERIAL=1.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -48,6 +48,10 @@ int main(int argc, char** argv) {
     readCount(std::string("STEPS=") + argv[3], "STEPS", steps);
     for (int k = 4; k < argc; ++k) {
       const std::string arg = argv[k];
+      if (arg == "INTERFACE=split") {
+        distributed.interface = sweep::RankInterface::SplitMasses;
+        continue;
+      }
       if (!readCount(arg, "SWEEPS", distributed.sweeps_per_exchange) &&
           !readCount(arg, "REBALANCE", distributed.rebalance_interval) &&
           !readCount(arg, "SERIAL", serial))
@@ -98,7 +102,7 @@ int main(int argc, char** argv) {
       const double n = steps > 0 ? steps : 1;
       std::printf(
           "ranks %d%s grains %zu steps %d: %.2f ms/step, %.0f bytes/step, %.1f shared bodies "
-          "and %.1f glues per step, %.1f sweeps/step, %ld cap hits, %.1f rows/step, imbalance "
+          "and %.1f exchanges per step, %.1f sweeps/step, %ld cap hits, %.1f rows/step, imbalance "
           "%.3f\n",
           ranks.size(), serial ? " (single process)" : "", scene.model.components.size(), steps,
           1e3 * slowest[0] / n, bytes / n, shared / n, exchanges / n, sweeps / n, caps, active / n,

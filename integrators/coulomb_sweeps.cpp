@@ -83,6 +83,23 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
 
 }  // namespace
 
+void sweepCoulombRows(const ContactProblem& p, const SolverSettings& settings,
+                      std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
+                      const int* rows, int count, double& change2, double& size2, int& failures) {
+  const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
+  const RowReader reader(
+      p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
+  const CoulombSweep sweep{reader, settings, P, R, rows};
+  sweep(0, count, v, change2, size2, failures);
+}
+
+void coulombResidualSums(const ContactProblem& p, const std::vector<Vector3>& P,
+                         const std::vector<Vector2>* R, const VectorX& v, const int* rows,
+                         int count, double& f2, double& scale2) {
+  const RowReader reader(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
+  coulombResidualTerms(reader, P, R, v, rows, count, f2, scale2);
+}
+
 SolverStats solveCoulombNlgs(const ContactProblem& p, const SolverSettings& settings,
                              std::vector<Vector3>& P, VectorX& v, SolverWorkspace& ws,
                              std::vector<Vector2>* R, bool velocity_holds_warm_start) {

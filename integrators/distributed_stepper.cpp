@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "framework/error.hpp"
@@ -74,6 +75,7 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
   local_.assign(bodies, 0);
   owner_.assign(bodies, -1);
   touched_.assign(bodies, 0);
+  moved_.assign(bodies, 0);
   multiplicity_.assign(bodies, 1.0);
   glued_index_.assign(bodies, -1);
   contact_count_.assign(bodies, 0);
@@ -218,22 +220,94 @@ void DistributedStepper::findSharedBodies() {
       multiplicity_[b] += 1.0;
     }
   }
+  // the touchers of each of this rank's glued bodies, in rank order
+  toucher_begin_.assign(1, 0);
+  toucher_rank_.clear();
+  for (std::size_t g = 0; g < glued_.size(); ++g) toucher_begin_.push_back(0);
+  {
+    std::vector<std::vector<int>>& lists = touchers_scratch_;
+    lists.resize(glued_.size());
+    for (auto& list : lists) list.clear();
+    for (int r = 0; r < size; ++r) {
+      if (r == rank) {
+        for (std::size_t g = 0; g < glued_.size(); ++g)
+          if (touched_[glued_[g]]) lists[g].push_back(rank);
+      }
+      for (const int b : touch_in_[r])
+        lists[static_cast<std::size_t>(glued_index_[b])].push_back(r);
+    }
+    for (std::size_t g = 0; g < glued_.size(); ++g) {
+      toucher_rank_.insert(toucher_rank_.end(), lists[g].begin(), lists[g].end());
+      toucher_begin_[g + 1] = static_cast<int>(toucher_rank_.size());
+    }
+  }
+  // the reply: per body, its multiplicity and its touchers
   for (int r = 0; r < size; ++r) {
     send_[r].clear();
-    for (const int b : touch_in_[r]) send_[r].push_back(multiplicity_[b]);
+    for (const int b : touch_in_[r]) {
+      const int g = glued_index_[b];
+      send_[r].push_back(multiplicity_[b]);
+      send_[r].push_back(toucher_begin_[g + 1] - toucher_begin_[g]);
+      for (int t = toucher_begin_[g]; t < toucher_begin_[g + 1]; ++t)
+        send_[r].push_back(toucher_rank_[t]);
+    }
   }
   sent();
   ranks_.exchange(send_, receive_);
-  for (int r = 0; r < size; ++r)
-    for (std::size_t k = 0; k < touch_out_[r].size(); ++k) {
-      const int b = touch_out_[r][k];
-      multiplicity_[b] = receive_[r][k];
+  for (int r = 0; r < size; ++r) {
+    std::size_t at = 0;
+    for (const int b : touch_out_[r]) {
+      multiplicity_[b] = receive_[r][at++];
+      const int count = static_cast<int>(receive_[r][at++]);
       glued_index_[b] = static_cast<int>(glued_.size());
       glued_.push_back(b);
+      for (int t = 0; t < count; ++t) toucher_rank_.push_back(static_cast<int>(receive_[r][at++]));
+      toucher_begin_.push_back(static_cast<int>(toucher_rank_.size()));
     }
+  }
+  shared_count_ = 0;
   split_.clear();
   for (const int b : glued_)
-    if (touched_[b] && multiplicity_[b] > 1.0) split_.push_back(b);
+    if (touched_[b] && multiplicity_[b] > 1.0) {
+      ++shared_count_;
+      if (settings_.interface == RankInterface::SplitMasses) split_.push_back(b);
+    }
+  if (settings_.interface == RankInterface::OrderedSweeps) colourRanks();
+}
+
+void DistributedStepper::colourRanks() {
+  // neighbours: the ranks whose contacts touch a body this rank's contacts touch
+  const int rank = ranks_.rank();
+  std::vector<double> mine;
+  std::vector<char> seen(static_cast<std::size_t>(ranks_.size()), 0);
+  for (std::size_t g = 0; g < glued_.size(); ++g) {
+    if (!touched_[glued_[g]]) continue;
+    for (int t = toucher_begin_[g]; t < toucher_begin_[g + 1]; ++t)
+      if (toucher_rank_[t] != rank && !seen[toucher_rank_[t]]) {
+        seen[toucher_rank_[t]] = 1;
+        mine.push_back(toucher_rank_[t]);
+      }
+  }
+  std::sort(mine.begin(), mine.end());
+  mine.insert(mine.begin(), static_cast<double>(mine.size()));
+  const std::vector<double> all = ranks_.gather(mine);
+  // greedy colours in rank order: the same on every rank
+  std::vector<int> colour(static_cast<std::size_t>(ranks_.size()), -1);
+  colours_ = 0;
+  std::size_t at = 0;
+  for (int r = 0; r < ranks_.size(); ++r) {
+    const int count = static_cast<int>(all[at++]);
+    std::vector<char> used(static_cast<std::size_t>(ranks_.size()) + 1, 0);
+    for (int k = 0; k < count; ++k) {
+      const int neighbour = static_cast<int>(all[at++]);
+      if (colour[neighbour] >= 0) used[colour[neighbour]] = 1;
+    }
+    int c = 0;
+    while (used[c]) ++c;
+    colour[r] = c;
+    colours_ = std::max(colours_, c + 1);
+  }
+  my_colour_ = colour[rank];
 }
 
 void DistributedStepper::splitMasses(bool split) {
@@ -281,8 +355,7 @@ void DistributedStepper::glue(const VectorX& v_free, VectorX& v, double& mismatc
     if (owner_[b] != rank) continue;
     const int first = m_.model.bodies[b].v_index;
     for (std::size_t k = 0; k < nv; ++k)
-      glued_velocity_[g * nv + k] =
-          v_free[first + k] + glued_velocity_[g * nv + k] / multiplicity_[b];
+      glued_velocity_[g * nv + k] = v_free[first + k] + glued_velocity_[g * nv + k] / divisor(b);
   }
   for (int r = 0; r < size; ++r) {
     send_[r].clear();
@@ -399,6 +472,137 @@ void DistributedStepper::solveAcrossRanks() {
   dstats_.mismatch = mismatch;
 }
 
+void DistributedStepper::sendSharedVelocities(bool sender, VectorX& v) {
+  const int size = ranks_.size(), rank = ranks_.rank();
+  for (int r = 0; r < size; ++r) send_[r].clear();
+  std::int64_t doubles = 0;
+  if (sender) {
+    for (std::size_t g = 0; g < glued_.size(); ++g) {
+      const int b = glued_[g];
+      // a body this rank's candidates touch but no row moves is only received: its copy
+      // here misses the other ranks' NNCG momentum
+      if (!moved_[b]) continue;
+      const int first = m_.model.bodies[b].v_index;
+      auto to = [&](int r) {
+        send_[r].push_back(b);
+        for (int k = 0; k < nv_; ++k) send_[r].push_back(v[first + k]);
+        doubles += 1 + nv_;
+      };
+      bool owner_touches = false;
+      for (int t = toucher_begin_[g]; t < toucher_begin_[g + 1]; ++t) {
+        owner_touches = owner_touches || toucher_rank_[t] == owner_[b];
+        if (toucher_rank_[t] != rank) to(toucher_rank_[t]);
+      }
+      if (!owner_touches && owner_[b] != rank) to(owner_[b]);
+    }
+  }
+  bytes_ += 8 * doubles;
+  ranks_.exchange(send_, receive_);
+  for (int r = 0; r < size; ++r)
+    for (std::size_t at = 0; at + 1 + nv_ <= receive_[r].size(); at += 1 + nv_) {
+      const int first = m_.model.bodies[static_cast<int>(receive_[r][at])].v_index;
+      for (int k = 0; k < nv_; ++k) v[first + k] = receive_[r][at + 1 + k];
+    }
+}
+
+void DistributedStepper::solveInRankOrder() {
+  const auto start = Clock::now();
+  VectorX& v = d_.v_free;  // becomes v_{k+1}
+  const SolverSettings& settings = m_.settings.coulomb;
+  const int n = d_.problem.size();
+  std::vector<Vector2>* R = d_.problem.rolling ? &d_.R : nullptr;
+  interior_rows_.clear();
+  interface_rows_.clear();
+  for (const int b : glued_) moved_[b] = 0;
+  for (int c = 0; c < n; ++c) {
+    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
+    bool shared = false;
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic && glued_index_[body->index] >= 0) {
+        shared = true;
+        moved_[body->index] = 1;
+      }
+    (shared ? interface_rows_ : interior_rows_).push_back(c);
+  }
+  // the warm start: every copy of a shared body takes every rank's impulses of the last step
+  const auto nv = static_cast<std::size_t>(nv_);
+  v_free_ = v;
+  push_.assign(glued_.size() * nv, 0.0);
+  glued_velocity_.assign(glued_.size() * nv, 0.0);
+  v_in_.resize(glued_.size() * nv);
+  for (std::size_t g = 0; g < glued_.size(); ++g)
+    for (std::size_t k = 0; k < nv; ++k)
+      v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
+  warm_order_.resize(static_cast<std::size_t>(n));
+  for (int c = 0; c < n; ++c) warm_order_[c] = c;
+  warmStart(d_.problem, d_.P, R, warm_order_.data(), n, v);
+  double mismatch = 0.0;
+  glue(v_free_, v, mismatch);
+  int sweeps = 0, failures = 0;
+  long updates = 0;
+  double residual = 0.0;
+  bool converged = false;
+  // NNCG as the single process takes it (integrators/sweeps.hpp), with the sweep's change
+  // summed over every rank: the same momentum on every copy of a shared body
+  std::optional<NncgMomentum> momentum;
+  if (settings.acceleration == NlgsAcceleration::Nncg && n > 0) {
+    prepareNncg(settings, d_.problem, v, d_.solver_ws);
+    std::copy(warm_order_.begin(), warm_order_.end(), d_.solver_ws.order.begin());
+    momentum.emplace(d_.problem, std::initializer_list<ImpulseArray>{impulses(d_.P), impulses(R)},
+                     v, d_.solver_ws, n);
+  }
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    double change2 = 0.0, size2 = 0.0;
+    failures = 0;
+    sweepCoulombRows(d_.problem, settings, d_.P, R, v, interior_rows_.data(),
+                     static_cast<int>(interior_rows_.size()), change2, size2, failures);
+    for (int colour = 0; colour < colours_; ++colour) {
+      const bool mine = colour == my_colour_;
+      if (mine)
+        sweepCoulombRows(d_.problem, settings, d_.P, R, v, interface_rows_.data(),
+                         static_cast<int>(interface_rows_.size()), change2, size2, failures);
+      sendSharedVelocities(mine, v);
+    }
+    ++sweeps;
+    updates += n;
+    // the sums over every rank, gathered in rank order: one verdict on every rank
+    auto total = [&](double a, double b, double& a_all, double& b_all) {
+      const std::vector<double> all = ranks_.gather({a, b});
+      a_all = b_all = 0.0;
+      for (std::size_t r = 0; r + 2 <= all.size(); r += 2) {
+        a_all += all[r];
+        b_all += all[r + 1];
+      }
+    };
+    double change_all = 0.0, size_all = 0.0;
+    total(change2, size2, change_all, size_all);
+    if (residualDue(settings, it, change_all, size_all)) {
+      double f2 = 0.0, scale2 = 0.0, f2_all = 0.0, scale2_all = 0.0;
+      coulombResidualSums(d_.problem, d_.P, R, v, warm_order_.data(), n, f2, scale2);
+      total(f2, scale2, f2_all, scale2_all);
+      residual = relative(f2_all, scale2_all);
+      if (!std::isfinite(residual)) break;
+      if (momentum) momentum->watch(residual);
+      if (residual < settings.tolerance) {
+        converged = true;
+        break;
+      }
+    }
+    if (momentum && it + 1 < settings.max_iterations) momentum->step(change_all, v);
+  }
+  d_.stats.iterations_stage1 = sweeps;
+  d_.stats.iterations_stage2 = 0;
+  d_.stats.updates = updates;
+  d_.stats.residual = residual;
+  d_.stats.local_failures = failures;
+  d_.stats.status = converged ? SolverStatus::Converged : SolverStatus::MaxIterations;
+  if (!v.allFinite()) d_.stats.status = SolverStatus::Failed;
+  d_.stats.cap_hit = !converged;
+  d_.stats.t_solve = std::chrono::duration<double>(Clock::now() - start).count();
+  dstats_.exchanges = sweeps * colours_;
+  dstats_.mismatch = 0.0;
+}
+
 const StepStats& DistributedStepper::step() {
   using namespace stepping;
   d_.stats.step += 1;
@@ -432,6 +636,8 @@ const StepStats& DistributedStepper::step() {
   }
   if (ranks_.size() == 1)
     solveMoreauJean(m_, d_);
+  else if (settings_.interface == RankInterface::OrderedSweeps)
+    solveInRankOrder();
   else
     solveAcrossRanks();
   keepImpulses(m_, d_);
@@ -466,7 +672,7 @@ void DistributedStepper::reduceStats() {
                                  d_.stats.residual,
                                  kinetic,
                                  static_cast<double>(bytes_),
-                                 static_cast<double>(split_.size()),
+                                 static_cast<double>(shared_count_),
                                  static_cast<double>(owned_.size()),
                                  d_.stats.status == SolverStatus::Failed ? 1.0 : 0.0};
   const std::vector<double> all = ranks_.gather(mine);

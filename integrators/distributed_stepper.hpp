@@ -1,23 +1,32 @@
 #pragma once
 // Scheme A (Jean-Moreau, time_stepper.hpp) over MPI ranks: each rank steps the particles it
-// owns (contact/domain_decomposition.hpp) and solves the contacts whose first body it owns;
-// the bodies shared by the contacts of several ranks are glued by the nonsmooth contact
-// domain decomposition (NSCDD) of Visseq, Martin, Iceta, Azema, Dureisseix & Alart,
-// "Distributed nonsmooth contact domain decomposition (NSCDD): algorithmic structure and
-// scalability" (Domain Decomposition Methods in Science and Engineering XXI, 2014), after
-// Barboteu, Alart & Dureisseix (2001):
+// owns (contact/domain_decomposition.hpp) and solves the contacts whose first body it owns.
+// A body the contacts of several ranks touch (a shared body) is solved in one of two ways
+// (RankInterface):
 //
-//   a body b touched by the contacts of n_b ranks takes mass m_b / n_b on each of them. Rank
-//   s sweeps its contacts (NLGS) from v_in,s = v_b - c_b,s, where c_b,s = n_b M_b^-1 H_s^T P_s
-//   is its own contacts' push on b, and the owner of b glues the copies after every
-//   `sweeps_per_exchange` sweeps:
-//     v_b = v_free,b + (1 / n_b) sum_s c_b,s = v_free,b + M_b^-1 sum_s H_s^T P_s,
-//   the velocity of the whole body under every rank's impulses.
-// The solve stops on the single process's test: the relative natural-map residual of every
-// rank's rows at the glued velocities, summed over the ranks, below the solver's tolerance.
-// The warm start (the last step's impulses) is applied and glued before the first sweeps, and
-// the solver resumes from the glued velocities without applying it again (solveCoulombNlgs,
-// velocity_holds_warm_start). One rank runs the plain step.
+// - Ordered sweeps (the default): the single process's NLGS in another row order. Each sweep
+//   takes every rank's interior rows (on bodies no other rank touches) at once, then the rows
+//   on shared bodies colour by colour of a greedy colouring of the ranks (two ranks that touch
+//   one body differ in colour), each colour sending the new velocities of the shared bodies
+//   its rows moved to their other holders before the next colour sweeps. The masses, the
+//   NNCG momentum (with the sweep's change summed over the ranks) and the stopping test are
+//   the single process's, and so are the sweep counts: 42.8 against 41.5 a step on the powder
+//   heap (docs/benchmarks.md, "Scheme A over ranks"). The interface rows of different colours
+//   wait for each other: a serial part that grows with the cut surfaces.
+// - Split masses: the nonsmooth contact domain decomposition (NSCDD) of Visseq, Martin,
+//   Iceta, Azema, Dureisseix & Alart, "Distributed nonsmooth contact domain decomposition
+//   (NSCDD): algorithmic structure and scalability" (Domain Decomposition Methods in Science
+//   and Engineering XXI, 2014), after Barboteu, Alart & Dureisseix (2001). A body touched by
+//   n_b ranks takes mass m_b / n_b on each; rank s sweeps from v_in,s = v_b - c_b,s, where
+//   c_b,s = n_b M_b^-1 H_s^T P_s is its own rows' push, and the owner glues the copies after
+//   every sweeps_per_exchange sweeps:
+//     v_b = v_free,b + (1 / n_b) sum_s c_b,s = v_free,b + M_b^-1 sum_s H_s^T P_s.
+//   Every rank sweeps at once, but the glue converges slowly: about twice the single
+//   process's sweeps on the heap.
+// Both stop on the single process's test: the relative natural-map residual of every rank's
+// rows, summed over the ranks in rank order, below the solver's tolerance. Both apply the
+// warm start (the last step's impulses) and add every rank's part of it on the shared bodies
+// before the first sweep. One rank runs the plain step.
 //
 // Each step: the owners move with their particles (migration; rebalanced by work every
 // rebalance_interval steps), the copies within ghost_width of a rank's region arrive with q
@@ -38,9 +47,22 @@
 
 namespace sweep {
 
+// How the contacts of several ranks on one body are solved together.
+enum class RankInterface {
+  // Gauss-Seidel in an order across ranks: each sweep takes every rank's interior rows (those
+  // on bodies no other rank's contacts touch) at once, then the rows on shared bodies rank
+  // colour by rank colour (no two ranks of a colour touch one body), each colour's new
+  // velocities of the shared bodies sent to their other holders before the next: the single
+  // process's sweep in another row order, with its masses and its sweep counts.
+  OrderedSweeps,
+  // NSCDD (above): split masses, sweeps on every rank at once, glued by averaging.
+  SplitMasses,
+};
+
 struct DistributedSettings {
-  // NLGS sweeps between two glues of the shared bodies: 5 is the fastest of 2, 5 and 10 on the
-  // powder heap (docs/benchmarks.md, "Scheme A over ranks")
+  RankInterface interface = RankInterface::OrderedSweeps;
+  // split masses: NLGS sweeps between two glues of the shared bodies (5 is the fastest of 2,
+  // 5 and 10 on the powder heap)
   int sweeps_per_exchange = 5;
   int rebalance_interval = 0;  // steps between two rebalances by work; 0: at reset only
   // the largest centre distance of two grains that may touch within a step (m); 0: twice the
@@ -52,9 +74,9 @@ struct DistributedSettings {
 struct DistributedStats {
   std::int64_t bytes_sent = 0;     // migration, ghosts and glue messages
   std::int64_t shared_bodies = 0;  // bodies touched by the contacts of more than one rank
-  int exchanges = 0;               // glues of the shared bodies
-  // largest |v copy - v glued| of the last glue (m/s; a spin difference times the largest
-  // radius)
+  int exchanges = 0;  // of the shared bodies' velocities: per colour and sweep, or glues
+  // split masses: the largest |v copy - v glued| of the last glue (m/s; a spin difference
+  // times the largest radius)
   double mismatch = 0.0;
   double imbalance = 1.0;  // the most owned grains on one rank over the mean
 };
@@ -85,6 +107,14 @@ class DistributedStepper {
   void splitMasses(bool split);
   void solveAcrossRanks();
   void glue(const VectorX& v_free, VectorX& v, double& mismatch);
+  void colourRanks();
+  void solveInRankOrder();
+  // the velocities of the shared bodies this rank's rows touch, to their other holders
+  // (sender), or theirs received (every rank calls it: an all-to-all)
+  void sendSharedVelocities(bool sender, VectorX& v);
+  double divisor(int body) const {
+    return settings_.interface == RankInterface::SplitMasses ? multiplicity_[body] : 1.0;
+  }
   void reduceStats();
   void writeState(const ParticleSet& set, int i);
 
@@ -104,6 +134,7 @@ class DistributedStepper {
   // order sent), touch_in_[r] this rank's bodies that r's contacts touch
   std::vector<std::vector<int>> touch_out_, touch_in_;
   std::vector<char> touched_;         // per body: by this rank's contacts
+  std::vector<char> moved_;           // per glued body: by this rank's rows (ordered sweeps)
   std::vector<int> touched_list_;     // the bodies marked in touched_
   std::vector<double> multiplicity_;  // per body: ranks whose contacts touch it
   std::vector<int> glued_;            // bodies this rank glues or is glued for, each once
@@ -112,6 +143,13 @@ class DistributedStepper {
   // velocity the next sweeps start from
   std::vector<double> push_, glued_velocity_, v_in_;
   std::vector<int> warm_order_;  // 0 .. rows - 1: the warm start's order
+  // per glued body g, the ranks whose contacts touch it: toucher_rank_[toucher_begin_[g] ..
+  // toucher_begin_[g + 1])
+  std::vector<int> toucher_begin_, toucher_rank_;
+  std::vector<std::vector<int>> touchers_scratch_;
+  std::int64_t shared_count_ = 0;  // glued bodies this rank touches that another rank does
+  int colours_ = 1, my_colour_ = 0;
+  std::vector<int> interior_rows_, interface_rows_;
   std::vector<double> base_inverse_mass_, base_inverse_inertia_;  // per body, unsplit
   std::vector<int> split_;                   // bodies whose masses are split this step
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)

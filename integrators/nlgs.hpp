@@ -33,6 +33,17 @@ SolverStats solveCoulombNlgs(const ContactProblem& problem, const SolverSettings
                              std::vector<Vector2>* rolling = nullptr,
                              bool velocity_holds_warm_start = false);
 
+// For solvers that drive the sweeps themselves (integrators/distributed_stepper.hpp), on
+// scheme A's rows rows[0, count) in that order, with no warm start: one Gauss-Seidel sweep
+// (adds to the sums of the impulses' change and size, and to the local failures), and the sums
+// of the relative natural-map residual that solveCoulombNlgs tests.
+void sweepCoulombRows(const ContactProblem& problem, const SolverSettings& settings,
+                      std::vector<Vector3>& P, std::vector<Vector2>* rolling, VectorX& v,
+                      const int* rows, int count, double& change2, double& size2, int& failures);
+void coulombResidualSums(const ContactProblem& problem, const std::vector<Vector3>& P,
+                         const std::vector<Vector2>* rolling, const VectorX& v, const int* rows,
+                         int count, double& f2, double& scale2);
+
 // Stage 5a by NLGS; arguments as solveNormalStage's (integrators/stage_solvers.hpp).
 SolverStats solveNormalStageNlgs(const ContactProblem& problem, const SolverSettings& settings,
                                  std::vector<double>& lambda_N, VectorX& v,

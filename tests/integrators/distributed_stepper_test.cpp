@@ -116,32 +116,48 @@ void compare(const Scene& scene, const State& a, const State& b, double& positio
 }
 
 // Through the first impacts and into the closing pile (100 steps, up to 250 closed contacts):
-// the glued solve reaches the solver's tolerance, so the runs agree to round-off far below a
-// grain's size. With one rank the run is the single process's, to the bit. (At step 106 the
-// pile's frictional problem has two solutions 3e-4 m/s apart: the single process picks the
-// other one too when its sweep order is shuffled, so the comparison stops before it.)
-TEST(DistributedStepper, AgreesWithTheSingleProcess) {
+// the solve across ranks reaches the solver's tolerance, so the runs agree to round-off far
+// below a grain's size. With one rank the run is the single process's, to the bit. (At step
+// 106 the pile's frictional problem has two solutions 3e-4 m/s apart: the single process picks
+// the other one too when its sweep order is shuffled, so the comparison stops before it.)
+void expectAgreement(const SchemeSettings& settings, const DistributedSettings& distributed,
+                     const char* what, bool periodic = false) {
   const RankGroup ranks = RankGroup::world();
-  const Scene scene = fallingSpheres(12, 4, 3, false);
-  const SchemeSettings settings = settingsFor();
+  const Scene scene = periodic ? fallingSpheres(16, 3, 2, true) : fallingSpheres(12, 4, 3, false);
   const int steps = 100;
   const State serial = serialRun(scene, settings, steps);
   std::int64_t shared = 0;
-  const State spread = distributedRun(ranks, scene, settings, steps, {}, &shared);
+  const State spread = distributedRun(ranks, scene, settings, steps, distributed, &shared);
   double position = 0.0, speed = 0.0;
   compare(scene, serial, spread, position, speed);
   if (ranks.size() == 1) {
-    EXPECT_EQ(position, 0.0);
-    EXPECT_EQ(speed, 0.0);
+    EXPECT_EQ(position, 0.0) << what;
+    EXPECT_EQ(speed, 0.0) << what;
   } else {
-    EXPECT_GT(shared, 0) << "no body was shared: the test does not reach the glue";
-    EXPECT_LT(position, 1e-7 * kRadius) << "ranks " << ranks.size();
-    EXPECT_LT(speed, 1e-7) << "ranks " << ranks.size();
+    EXPECT_GT(shared, 0) << "no body was shared: the test does not reach the interface";
+    EXPECT_LT(position, 1e-7 * kRadius) << what << ", ranks " << ranks.size();
+    EXPECT_LT(speed, 1e-7) << what << ", ranks " << ranks.size();
   }
   std::printf(
-      "[ranks %d] largest difference to the single process: %.3g m, %.3g m/s; shared "
-      "bodies %lld\n",
-      ranks.size(), position, speed, static_cast<long long>(shared));
+      "[ranks %d] %s: largest difference to the single process %.3g m, %.3g m/s; "
+      "shared bodies %lld\n",
+      ranks.size(), what, position, speed, static_cast<long long>(shared));
+}
+
+TEST(DistributedStepper, OrderedSweepsAgreeWithTheSingleProcess) {
+  expectAgreement(settingsFor(), {}, "ordered sweeps");
+}
+
+TEST(DistributedStepper, OrderedSweepsWithNncgAgreeWithTheSingleProcess) {
+  SchemeSettings settings = settingsFor();
+  settings.coulomb.acceleration = NlgsAcceleration::Nncg;
+  expectAgreement(settings, {}, "ordered sweeps, NNCG", true);
+}
+
+TEST(DistributedStepper, SplitMassesAgreeWithTheSingleProcess) {
+  DistributedSettings distributed;
+  distributed.interface = RankInterface::SplitMasses;
+  expectAgreement(settingsFor(), distributed, "split masses");
 }
 
 // A bed periodic along x whose period spans the ranks, rebalanced as it goes.
