@@ -84,8 +84,8 @@ SolverStats coulombIsland(const ContactProblem& p, const SolverSettings& setting
 }  // namespace
 
 void sweepCoulombRows(const ContactProblem& p, const SolverSettings& settings,
-                      std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v,
-                      const int* rows, int count, double& change2, double& size2, int& failures) {
+                      std::vector<Vector3>& P, std::vector<Vector2>* R, VectorX& v, const int* rows,
+                      int count, double& change2, double& size2, int& failures) {
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
   const RowReader reader(
       p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));

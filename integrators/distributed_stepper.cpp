@@ -95,7 +95,8 @@ void DistributedStepper::writeState(const ParticleSet& set, int i) {
 
 void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
   stepping::reset(m_, d_, t, q, v);
-  d_.owned_body.assign(m_.model.bodies.size(), 0);
+  d_.body_rank.assign(m_.model.bodies.size(), -1);
+  d_.rank = ranks_.rank();
   DecompositionSettings ds;
   ds.dimension = 3;
   Eigen::AlignedBox3d box;
@@ -146,14 +147,14 @@ void DistributedStepper::refreshOwnership() {
   const ExchangeStats moved =
       rebalance ? decomposition_->balance(owned_) : decomposition_->migrate(owned_);
   bytes_ += moved.bytes;
-  std::fill(d_.owned_body.begin(), d_.owned_body.end(), 0);
+  std::fill(d_.body_rank.begin(), d_.body_rank.end(), -1);
   for (int i = 0; i < owned_.size(); ++i) {
-    d_.owned_body[owned_.id[i]] = 1;
+    d_.body_rank[owned_.id[i]] = ranks_.rank();
     writeState(owned_, i);
   }
   // what this rank does not own is at rest until a ghost exchange brings it
   for (const int b : particle_body_)
-    if (!d_.owned_body[b]) d_.v.segment(m_.model.bodies[b].v_index, nv_).setZero();
+    if (d_.body_rank[b] != ranks_.rank()) d_.v.segment(m_.model.bodies[b].v_index, nv_).setZero();
 }
 
 void DistributedStepper::receiveGhosts() {
@@ -170,7 +171,7 @@ void DistributedStepper::receiveGhosts() {
     const int b = static_cast<int>(ghosts_.id[i]);
     if (local_[b]) continue;  // an image of an own grain, or a second image
     local_[b] = 1;
-    owner_[b] = decomposition_->owner(ghosts_.position[i]);
+    owner_[b] = d_.body_rank[b] = decomposition_->owner(ghosts_.position[i]);
     local_bodies_.push_back(b);
     writeState(ghosts_, i);
   }
@@ -180,12 +181,21 @@ void DistributedStepper::receiveGhosts() {
 void DistributedStepper::findSharedBodies() {
   for (const int b : touched_list_) touched_[b] = 0;
   touched_list_.clear();
-  for (const Contact& contact : d_.contact_data.contacts)
+  auto touch = [&](const Contact& contact) {
     for (const BodyRef* body : {&contact.body_a, &contact.body_b})
       if (body->kind == BodyRef::Kind::Dynamic && !touched_[body->index]) {
         touched_[body->index] = 1;
         touched_list_.push_back(body->index);
       }
+  };
+  // ordered sweeps: the bodies the assembled rows move; split masses, needed before the
+  // assembly: every candidate's (a superset, whose extra bodies get no push)
+  if (settings_.interface == RankInterface::OrderedSweeps) {
+    for (int c = 0; c < d_.problem.size(); ++c)
+      touch(d_.contact_data.contacts[d_.problem.contact[c]]);
+  } else {
+    for (const Contact& contact : d_.contact_data.contacts) touch(contact);
+  }
   std::sort(touched_list_.begin(), touched_list_.end());
   const int size = ranks_.size(), rank = ranks_.rank();
   for (int r = 0; r < size; ++r) {
@@ -622,9 +632,13 @@ const StepStats& DistributedStepper::step() {
         std::to_string(margin[0]) + " m plus the largest diameter exceeds the ghost width " +
         std::to_string(ghost_width) + " m; raise ghost_width or shorten the step");
   freeVelocity(m_, d_);
-  findSharedBodies();
-  splitMasses(true);
+  const bool ordered = settings_.interface == RankInterface::OrderedSweeps;
+  if (!ordered) {
+    findSharedBodies();
+    splitMasses(true);
+  }
   assemble(m_, d_);
+  if (ordered) findSharedBodies();
   // a split mass reaches only the compact sphere rows, which read it from the workspace
   for (int c = 0; c < d_.problem.size(); ++c) {
     if (d_.problem.sphereForm(c) >= 0) continue;

@@ -140,10 +140,12 @@ struct StepData {
   ContactData contact_data;  // 2: contacts and their Jacobian rows
   ContactProblem problem;    // 3: the rows of the solve
   ContactProblemWorkspace problem_ws;
-  // a distributed run (integrators/distributed_stepper.hpp): per body, whether this rank owns
-  // it. Detection keeps only the contacts whose first body with dofs this rank owns; empty:
-  // every contact.
-  std::vector<char> owned_body;
+  // a distributed run (integrators/distributed_stepper.hpp): per body, the rank that owns it
+  // (-1: not held here), and this rank. Detection keeps the contacts whose bodies' lowest
+  // owner is this rank: a contact across a cut goes to the lower rank, so only the higher
+  // rank's grains along the cut are shared. Empty: every contact.
+  std::vector<int> body_rank;
+  int rank = 0;
   SolverWorkspace solver_ws;
   StepStats stats;
 

@@ -257,14 +257,17 @@ void midpoint(const StepModel& m, StepData& d) {
 }
 
 namespace {
-// a contact belongs to the rank that owns its first body with dofs (the lower index)
-void keepOwnedContacts(const std::vector<char>& owned_body, std::vector<Contact>& contacts) {
+// a contact belongs to the lowest rank that owns one of its bodies with dofs
+void keepOwnedContacts(const std::vector<int>& body_rank, int rank,
+                       std::vector<Contact>& contacts) {
   auto owned = [&](const Contact& contact) {
-    int first = -1;
+    int lowest = -1;
     for (const BodyRef* body : {&contact.body_a, &contact.body_b})
-      if (body->kind == BodyRef::Kind::Dynamic && (first < 0 || body->index < first))
-        first = body->index;
-    return first >= 0 && owned_body[first];
+      if (body->kind == BodyRef::Kind::Dynamic) {
+        const int owner = body_rank[body->index];
+        if (owner >= 0 && (lowest < 0 || owner < lowest)) lowest = owner;
+      }
+    return lowest == rank;
   };
   contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
                                 [&](const Contact& contact) { return !owned(contact); }),
@@ -282,7 +285,7 @@ void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   d.stats.margin = margins.others;
   d.stats.margin_balls = margins.balls;
   detectContacts(m.model, d.model_data, m.cmodel, d.contact_data, t_m, margins, m.threads);
-  if (!d.owned_body.empty()) keepOwnedContacts(d.owned_body, d.contact_data.contacts);
+  if (!d.body_rank.empty()) keepOwnedContacts(d.body_rank, d.rank, d.contact_data.contacts);
   std::swap(d.impulse, d.previous_impulse);
   d.impulse.assign(d.contact_data.contacts.size(), Vector3::Zero());
   const int contacts = static_cast<int>(d.contact_data.contacts.size());
