@@ -10,7 +10,7 @@
 //   one body differ in colour), each colour sending the new velocities of the shared bodies
 //   its rows moved to their other holders before the next colour sweeps. The masses, the
 //   NNCG momentum (with the sweep's change summed over the ranks) and the stopping test are
-//   the single process's, and so are the sweep counts: 42.8 against 41.5 a step on the powder
+//   the single process's, and so are the sweep counts: 42.5 against 41.5 a step on the powder
 //   heap (docs/benchmarks.md, "Scheme A over ranks"). The interface rows of different colours
 //   wait for each other: a serial part that grows with the cut surfaces.
 // - Split masses: the nonsmooth contact domain decomposition (NSCDD) of Visseq, Martin,
