@@ -640,7 +640,7 @@ const StepStats& DistributedStepper::step() {
   assemble(m_, d_);
   if (ordered) findSharedBodies();
   // a split mass reaches only the compact sphere rows, which read it from the workspace
-  for (int c = 0; c < d_.problem.size(); ++c) {
+  for (int c = 0; !ordered && c < d_.problem.size(); ++c) {
     if (d_.problem.sphereForm(c) >= 0) continue;
     const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
     for (const BodyRef* body : {&contact.body_a, &contact.body_b})

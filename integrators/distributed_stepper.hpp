@@ -90,7 +90,10 @@ class DistributedStepper {
   // Collective; every rank passes the same whole state.
   void reset(double t, const VectorX& q, const VectorX& v);
   // Collective. The stats are this rank's, with active, iterations, cap_hit, status, residual
-  // and kinetic taken over every rank.
+  // and kinetic taken over every rank. An exception from one rank's step (a state that is no
+  // longer finite, a periodic reach beyond half the period) leaves the others waiting in a
+  // collective: the caller ends the job with RankGroup::abort, as bench/distributed_bench
+  // does. A ghost width too small for the margin throws on every rank.
   const StepStats& step();
   // Collective: the whole state, each body as its owner holds it, on every rank.
   void gatherState(VectorX& q, VectorX& v) const;

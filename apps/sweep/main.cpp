@@ -76,7 +76,8 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
 }
 
 // Started by mpirun / mpiexec as one of several processes, every one would run the whole scene
-// and write the same files: refused (issue #49: runs on ranks are not built yet). The launchers
+// and write the same files: refused (issue #49: the step runs on ranks,
+// integrators/distributed_stepper.hpp, but `sweep run` does not drive it yet). The launchers
 // name the process count in the environment (Open MPI, MPICH's Hydra, MVAPICH, Slurm's PMI).
 void refuseSeveralRanks() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MV2_COMM_WORLD_SIZE"}) {
