@@ -122,45 +122,59 @@ void RankGroup::exchange(const std::vector<std::vector<double>>& send,
                          std::vector<std::vector<double>>& receive) const {
   receive.resize(size_);
   if (!mpi_) {
-    receive[0] = send[0];
+    receive[0].assign(send[0].begin(), send[0].end());
     return;
   }
-  std::vector<int> send_count(size_), receive_count(size_), send_offset(size_ + 1, 0),
-      receive_offset(size_ + 1, 0);
+  send_count_.resize(size_);
+  receive_count_.resize(size_);
+  send_offset_.assign(size_ + 1, 0);
+  receive_offset_.assign(size_ + 1, 0);
   for (int r = 0; r < size_; ++r) {
     if (send[r].size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
       abort("sweep: a rank's exchange exceeds 2^31 doubles", 1);
-    send_count[r] = static_cast<int>(send[r].size());
+    send_count_[r] = static_cast<int>(send[r].size());
   }
-  check(
-      MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, MPI_COMM_WORLD),
-      "MPI_Alltoall");
+  check(MPI_Alltoall(send_count_.data(), 1, MPI_INT, receive_count_.data(), 1, MPI_INT,
+                     MPI_COMM_WORLD),
+        "MPI_Alltoall");
   for (int r = 0; r < size_; ++r) {
-    send_offset[r + 1] = send_offset[r] + send_count[r];
-    receive_offset[r + 1] = receive_offset[r] + receive_count[r];
+    send_offset_[r + 1] = send_offset_[r] + send_count_[r];
+    receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
   }
-  std::vector<double> out(static_cast<std::size_t>(send_offset[size_]));
-  std::vector<double> in(static_cast<std::size_t>(receive_offset[size_]));
+  packed_out_.resize(static_cast<std::size_t>(send_offset_[size_]));
+  packed_in_.resize(static_cast<std::size_t>(receive_offset_[size_]));
   for (int r = 0; r < size_; ++r)
-    std::copy(send[r].begin(), send[r].end(), out.begin() + send_offset[r]);
-  check(MPI_Alltoallv(out.data(), send_count.data(), send_offset.data(), MPI_DOUBLE, in.data(),
-                      receive_count.data(), receive_offset.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+    std::copy(send[r].begin(), send[r].end(), packed_out_.begin() + send_offset_[r]);
+  check(MPI_Alltoallv(packed_out_.data(), send_count_.data(), send_offset_.data(), MPI_DOUBLE,
+                      packed_in_.data(), receive_count_.data(), receive_offset_.data(), MPI_DOUBLE,
+                      MPI_COMM_WORLD),
         "MPI_Alltoallv");
   for (int r = 0; r < size_; ++r)
-    receive[r].assign(in.begin() + receive_offset[r], in.begin() + receive_offset[r + 1]);
+    receive[r].assign(packed_in_.begin() + receive_offset_[r],
+                      packed_in_.begin() + receive_offset_[r + 1]);
 }
 
 std::vector<double> RankGroup::gather(const std::vector<double>& values) const {
-  if (!mpi_) return values;
-  std::vector<int> count(size_), offset(size_ + 1, 0);
-  const int own = static_cast<int>(values.size());
-  check(MPI_Allgather(&own, 1, MPI_INT, count.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
-  for (int r = 0; r < size_; ++r) offset[r + 1] = offset[r] + count[r];
-  std::vector<double> all(static_cast<std::size_t>(offset[size_]));
-  check(MPI_Allgatherv(values.data(), own, MPI_DOUBLE, all.data(), count.data(), offset.data(),
-                       MPI_DOUBLE, MPI_COMM_WORLD),
-        "MPI_Allgatherv");
+  std::vector<double> all;
+  gather(values, all);
   return all;
+}
+
+void RankGroup::gather(const std::vector<double>& values, std::vector<double>& all) const {
+  if (!mpi_) {
+    all.assign(values.begin(), values.end());
+    return;
+  }
+  receive_count_.resize(size_);
+  receive_offset_.assign(size_ + 1, 0);
+  const int own = static_cast<int>(values.size());
+  check(MPI_Allgather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, MPI_COMM_WORLD),
+        "MPI_Allgather");
+  for (int r = 0; r < size_; ++r) receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
+  all.resize(static_cast<std::size_t>(receive_offset_[size_]));
+  check(MPI_Allgatherv(values.data(), own, MPI_DOUBLE, all.data(), receive_count_.data(),
+                       receive_offset_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Allgatherv");
 }
 
 void RankGroup::abort(const char* message, int code) const {

@@ -52,6 +52,8 @@ class RankGroup {
                 std::vector<std::vector<double>>& receive) const;
   // Every rank's values, concatenated in rank order.
   std::vector<double> gather(const std::vector<double>& values) const;
+  // The same into `all`, whose storage is reused: no allocation once it has grown.
+  void gather(const std::vector<double>& values, std::vector<double>& all) const;
   // Ends every rank: prints message on this rank's standard error, then MPI_Abort(code).
   [[noreturn]] void abort(const char* message, int code) const;
 
@@ -59,6 +61,10 @@ class RankGroup {
   RankGroup(int rank, int size, bool mpi) : rank_(rank), size_(size), mpi_(mpi) {}
   int rank_ = 0, size_ = 1;
   bool mpi_ = false;  // false: one process without MPI, whose collectives are local
+  // the collectives' counts and packed buffers, reused from call to call: a solve that
+  // exchanges every sweep allocates nothing once they have grown
+  mutable std::vector<int> send_count_, receive_count_, send_offset_, receive_offset_;
+  mutable std::vector<double> packed_out_, packed_in_;
 };
 
 // MPI_Init_thread (funneled: OpenMP threads inside a rank do not call MPI) for the life of the

@@ -450,8 +450,9 @@ void DistributedStepper::solveAcrossRanks() {
       rows.visit(c, [&](const auto& row) {
         coulombResidualTerms(row, d_.P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
       });
-    const std::vector<double> sums =
-        ranks_.gather({f2, scale2, s.status == SolverStatus::Failed ? 1.0 : 0.0});
+    reduce_mine_.assign({f2, scale2, s.status == SolverStatus::Failed ? 1.0 : 0.0});
+    ranks_.gather(reduce_mine_, reduce_all_);
+    const std::vector<double>& sums = reduce_all_;
     double f2_all = 0.0, scale2_all = 0.0, failed = 0.0;
     for (std::size_t r = 0; r + 3 <= sums.size(); r += 3) {
       f2_all += sums[r];
@@ -577,11 +578,12 @@ void DistributedStepper::solveInRankOrder() {
     updates += n;
     // the sums over every rank, gathered in rank order: one verdict on every rank
     auto total = [&](double a, double b, double& a_all, double& b_all) {
-      const std::vector<double> all = ranks_.gather({a, b});
+      reduce_mine_.assign({a, b});
+      ranks_.gather(reduce_mine_, reduce_all_);
       a_all = b_all = 0.0;
-      for (std::size_t r = 0; r + 2 <= all.size(); r += 2) {
-        a_all += all[r];
-        b_all += all[r + 1];
+      for (std::size_t r = 0; r + 2 <= reduce_all_.size(); r += 2) {
+        a_all += reduce_all_[r];
+        b_all += reduce_all_[r + 1];
       }
     };
     double change_all = 0.0, size_all = 0.0;

@@ -158,6 +158,7 @@ class DistributedStepper {
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)
   VectorX v_free_;                           // the contact-free velocity of this step
   std::vector<std::vector<double>> send_, receive_;
+  std::vector<double> reduce_mine_, reduce_all_;  // the solve's sums, gathered every sweep
   DistributedStats dstats_;
   std::int64_t bytes_ = 0;  // sent by this rank in this step
   bool balance_now_ = true;
