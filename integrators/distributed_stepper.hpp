@@ -1,8 +1,8 @@
 #pragma once
 // Scheme A (Jean-Moreau, time_stepper.hpp) over MPI ranks: each rank steps the particles it
-// owns (contact/domain_decomposition.hpp) and solves the contacts whose first body it owns.
-// A body the contacts of several ranks touch (a shared body) is solved in one of two ways
-// (RankInterface):
+// owns (contact/domain_decomposition.hpp) and solves the contacts whose lowest owner rank it
+// is (a contact across a cut goes to the lower rank). A body the rows of several ranks move
+// (a shared body) is solved in one of two ways (RankInterface):
 //
 // - Ordered sweeps (the default): the single process's NLGS in another row order. Each sweep
 //   takes every rank's interior rows (on bodies no other rank touches) at once, then the rows
