@@ -397,6 +397,43 @@ void DistributedStepper::glue(const VectorX& v_free, VectorX& v, double& mismatc
   }
 }
 
+double DistributedStepper::startFromWarmStart(VectorX& v) {
+  const auto nv = static_cast<std::size_t>(nv_);
+  v_free_ = v;
+  push_.assign(glued_.size() * nv, 0.0);
+  glued_velocity_.assign(glued_.size() * nv, 0.0);
+  v_in_.resize(glued_.size() * nv);
+  for (std::size_t g = 0; g < glued_.size(); ++g)
+    for (std::size_t k = 0; k < nv; ++k)
+      v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
+  const int n = d_.problem.size();
+  warm_order_.resize(static_cast<std::size_t>(n));
+  for (int c = 0; c < n; ++c) warm_order_[c] = c;
+  warmStart(d_.problem, d_.P, d_.problem.rolling ? &d_.R : nullptr, warm_order_.data(), n, v);
+  double mismatch = 0.0;
+  glue(v_free_, v, mismatch);
+  return mismatch;
+}
+
+void DistributedStepper::sumOverRanks(std::vector<double>& values) {
+  ranks_.gather(values, reduce_all_);
+  const std::size_t width = values.size();
+  std::fill(values.begin(), values.end(), 0.0);
+  for (std::size_t r = 0; r + width <= reduce_all_.size(); r += width)
+    for (std::size_t k = 0; k < width; ++k) values[k] += reduce_all_[r + k];
+}
+
+void DistributedStepper::recordSolve(Clock::time_point start, const SolverStats& solve) {
+  d_.stats.iterations_stage1 = solve.iterations;
+  d_.stats.iterations_stage2 = 0;
+  d_.stats.updates = solve.updates;
+  d_.stats.residual = solve.residual;
+  d_.stats.local_failures = solve.local_failures;
+  d_.stats.status = d_.v_free.allFinite() ? solve.status : SolverStatus::Failed;
+  d_.stats.cap_hit = solve.status != SolverStatus::Converged;
+  d_.stats.t_solve = std::chrono::duration<double>(Clock::now() - start).count();
+}
+
 void DistributedStepper::solveAcrossRanks() {
   const auto start = Clock::now();
   VectorX& v = d_.v_free;  // becomes v_{k+1}
@@ -411,26 +448,10 @@ void DistributedStepper::solveAcrossRanks() {
   const SolverSettings& whole = m_.settings.coulomb;
   SolverSettings round = whole;
   round.max_iterations = std::min(settings_.sweeps_per_exchange, whole.max_iterations);
-  const auto nv = static_cast<std::size_t>(nv_);
-  v_free_ = v;
-  push_.assign(glued_.size() * nv, 0.0);
-  glued_velocity_.assign(glued_.size() * nv, 0.0);
-  v_in_.resize(glued_.size() * nv);
-  for (std::size_t g = 0; g < glued_.size(); ++g)
-    for (std::size_t k = 0; k < nv; ++k)
-      v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
-  int sweeps = 0, exchanges = 0, failures = 0, rounds = 0;
+  int sweeps = 0, exchanges = 1, failures = 0, rounds = 0;
   long updates = 0;
-  double residual = 0.0, mismatch = 0.0;
+  double residual = 0.0, mismatch = startFromWarmStart(v);
   bool converged = false;
-  // the warm start of every rank glued before the first sweeps: each copy of a shared body
-  // starts with the other ranks' pushes of the last step, not from v_free
-  warm_order_.resize(static_cast<std::size_t>(d_.problem.size()));
-  for (int c = 0; c < d_.problem.size(); ++c) warm_order_[c] = c;
-  warmStart(d_.problem, d_.P, d_.problem.rolling ? &d_.R : nullptr, warm_order_.data(),
-            d_.problem.size(), v);
-  glue(v_free_, v, mismatch);
-  ++exchanges;
   for (;;) {
     const SolverStats s = solveCoulombNlgs(d_.problem, round, d_.P, v, d_.solver_ws,
                                            d_.problem.rolling ? &d_.R : nullptr, true);
@@ -440,27 +461,15 @@ void DistributedStepper::solveAcrossRanks() {
     glue(v_free_, v, mismatch);
     ++exchanges;
     // The single process's test on the whole problem: the relative natural-map residual of
-    // every rank's rows at the glued velocities, its sums gathered in rank order (the same
-    // verdict, to the bit, on every rank)
-    double f2 = 0.0, scale2 = 0.0;
-    const RowReader rows(d_.problem,
-                         RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
-    const std::vector<Vector2>* R = d_.problem.rolling ? &d_.R : nullptr;
-    for (int c = 0; c < d_.problem.size(); ++c)
-      rows.visit(c, [&](const auto& row) {
-        coulombResidualTerms(row, d_.P[c], R != nullptr ? &(*R)[c] : nullptr, v, f2, scale2);
-      });
-    reduce_mine_.assign({f2, scale2, s.status == SolverStatus::Failed ? 1.0 : 0.0});
-    ranks_.gather(reduce_mine_, reduce_all_);
-    const std::vector<double>& sums = reduce_all_;
-    double f2_all = 0.0, scale2_all = 0.0, failed = 0.0;
-    for (std::size_t r = 0; r + 3 <= sums.size(); r += 3) {
-      f2_all += sums[r];
-      scale2_all += sums[r + 1];
-      failed = std::max(failed, sums[r + 2]);
-    }
-    residual = scale2_all > 0.0 ? std::sqrt(f2_all / scale2_all) : std::sqrt(f2_all);
-    if (failed > 0.0) break;
+    // every rank's rows at the glued velocities, summed over the ranks
+    reduce_mine_.assign({0.0, 0.0, s.status == SolverStatus::Failed ? 1.0 : 0.0});
+    coulombResidualSums(d_.problem, d_.P, d_.problem.rolling ? &d_.R : nullptr, v,
+                        warm_order_.data(), d_.problem.size(), reduce_mine_[0], reduce_mine_[1]);
+    sumOverRanks(reduce_mine_);
+    const double f2_all = reduce_mine_[0], scale2_all = reduce_mine_[1];
+    const bool failed = reduce_mine_[2] > 0.0;
+    residual = relative(f2_all, scale2_all);
+    if (failed) break;
     if (residual < whole.tolerance) {
       converged = true;
       break;
@@ -470,15 +479,8 @@ void DistributedStepper::solveAcrossRanks() {
     // the next sweeps resume from v, which glue() left at the glued velocities: every copy
     // of a glued body holds v_in + its own push, and every other body v_free + its push
   }
-  d_.stats.iterations_stage1 = sweeps;
-  d_.stats.iterations_stage2 = 0;
-  d_.stats.updates = updates;
-  d_.stats.residual = residual;
-  d_.stats.local_failures = failures;
-  d_.stats.status = converged ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  if (!v.allFinite()) d_.stats.status = SolverStatus::Failed;
-  d_.stats.cap_hit = !converged;
-  d_.stats.t_solve = std::chrono::duration<double>(Clock::now() - start).count();
+  recordSolve(start, {converged ? SolverStatus::Converged : SolverStatus::MaxIterations, sweeps,
+                      updates, residual, failures});
   dstats_.exchanges = exchanges;
   dstats_.mismatch = mismatch;
 }
@@ -535,20 +537,7 @@ void DistributedStepper::solveInRankOrder() {
       }
     (shared ? interface_rows_ : interior_rows_).push_back(c);
   }
-  // the warm start: every copy of a shared body takes every rank's impulses of the last step
-  const auto nv = static_cast<std::size_t>(nv_);
-  v_free_ = v;
-  push_.assign(glued_.size() * nv, 0.0);
-  glued_velocity_.assign(glued_.size() * nv, 0.0);
-  v_in_.resize(glued_.size() * nv);
-  for (std::size_t g = 0; g < glued_.size(); ++g)
-    for (std::size_t k = 0; k < nv; ++k)
-      v_in_[g * nv + k] = v_free_[m_.model.bodies[glued_[g]].v_index + k];
-  warm_order_.resize(static_cast<std::size_t>(n));
-  for (int c = 0; c < n; ++c) warm_order_[c] = c;
-  warmStart(d_.problem, d_.P, R, warm_order_.data(), n, v);
-  double mismatch = 0.0;
-  glue(v_free_, v, mismatch);
+  startFromWarmStart(v);
   int sweeps = 0, failures = 0;
   long updates = 0;
   double residual = 0.0;
@@ -576,23 +565,16 @@ void DistributedStepper::solveInRankOrder() {
     }
     ++sweeps;
     updates += n;
-    // the sums over every rank, gathered in rank order: one verdict on every rank
-    auto total = [&](double a, double b, double& a_all, double& b_all) {
-      reduce_mine_.assign({a, b});
-      ranks_.gather(reduce_mine_, reduce_all_);
-      a_all = b_all = 0.0;
-      for (std::size_t r = 0; r + 2 <= reduce_all_.size(); r += 2) {
-        a_all += reduce_all_[r];
-        b_all += reduce_all_[r + 1];
-      }
-    };
-    double change_all = 0.0, size_all = 0.0;
-    total(change2, size2, change_all, size_all);
+    // the sums over every rank, in rank order: one verdict on every rank
+    reduce_mine_.assign({change2, size2});
+    sumOverRanks(reduce_mine_);
+    const double change_all = reduce_mine_[0], size_all = reduce_mine_[1];
     if (residualDue(settings, it, change_all, size_all)) {
-      double f2 = 0.0, scale2 = 0.0, f2_all = 0.0, scale2_all = 0.0;
-      coulombResidualSums(d_.problem, d_.P, R, v, warm_order_.data(), n, f2, scale2);
-      total(f2, scale2, f2_all, scale2_all);
-      residual = relative(f2_all, scale2_all);
+      reduce_mine_.assign({0.0, 0.0});
+      coulombResidualSums(d_.problem, d_.P, R, v, warm_order_.data(), n, reduce_mine_[0],
+                          reduce_mine_[1]);
+      sumOverRanks(reduce_mine_);
+      residual = relative(reduce_mine_[0], reduce_mine_[1]);
       if (!std::isfinite(residual)) break;
       if (momentum) momentum->watch(residual);
       if (residual < settings.tolerance) {
@@ -602,15 +584,8 @@ void DistributedStepper::solveInRankOrder() {
     }
     if (momentum && it + 1 < settings.max_iterations) momentum->step(change_all, v);
   }
-  d_.stats.iterations_stage1 = sweeps;
-  d_.stats.iterations_stage2 = 0;
-  d_.stats.updates = updates;
-  d_.stats.residual = residual;
-  d_.stats.local_failures = failures;
-  d_.stats.status = converged ? SolverStatus::Converged : SolverStatus::MaxIterations;
-  if (!v.allFinite()) d_.stats.status = SolverStatus::Failed;
-  d_.stats.cap_hit = !converged;
-  d_.stats.t_solve = std::chrono::duration<double>(Clock::now() - start).count();
+  recordSolve(start, {converged ? SolverStatus::Converged : SolverStatus::MaxIterations, sweeps,
+                      updates, residual, failures});
   dstats_.exchanges = sweeps * colours_;
   dstats_.mismatch = 0.0;
 }

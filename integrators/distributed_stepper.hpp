@@ -38,6 +38,7 @@
 // position projection, no adhesion, no actuators, and no re-detection on the end velocities
 // (the VEL law, or detection.verify_margin off); the constructor says which field is not
 // supported.
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -111,6 +112,12 @@ class DistributedStepper {
   void solveAcrossRanks();
   void glue(const VectorX& v_free, VectorX& v, double& mismatch);
   void colourRanks();
+  // v_free kept, the last step's impulses applied, and every rank's part of them added on the
+  // shared bodies; returns the glue's mismatch
+  double startFromWarmStart(VectorX& v);
+  // element by element over the ranks, in rank order: the same bits on every rank
+  void sumOverRanks(std::vector<double>& values);
+  void recordSolve(std::chrono::steady_clock::time_point start, const SolverStats& solve);
   void solveInRankOrder();
   // the velocities of the shared bodies this rank's rows touch, to their other holders
   // (sender), or theirs received (every rank calls it: an all-to-all)
