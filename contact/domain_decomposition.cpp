@@ -177,6 +177,32 @@ void RankGroup::gather(const std::vector<double>& values, std::vector<double>& a
         "MPI_Allgatherv");
 }
 
+void RankGroup::gatherOnRoot(const std::vector<double>& values, std::vector<double>& all) const {
+  if (!mpi_) {
+    all.assign(values.begin(), values.end());
+    return;
+  }
+  receive_count_.resize(size_);
+  receive_offset_.assign(size_ + 1, 0);
+  const int own = static_cast<int>(values.size());
+  check(MPI_Gather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, 0, MPI_COMM_WORLD),
+        "MPI_Gather");
+  if (rank_ == 0)
+    for (int r = 0; r < size_; ++r) receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
+  all.resize(rank_ == 0 ? static_cast<std::size_t>(receive_offset_[size_]) : 0);
+  check(MPI_Gatherv(values.data(), own, MPI_DOUBLE, all.data(), receive_count_.data(),
+                    receive_offset_.data(), MPI_DOUBLE, 0, MPI_COMM_WORLD),
+        "MPI_Gatherv");
+}
+
+void RankGroup::broadcast(std::string& text, int root) const {
+  if (!mpi_) return;
+  int length = static_cast<int>(text.size());
+  check(MPI_Bcast(&length, 1, MPI_INT, root, MPI_COMM_WORLD), "MPI_Bcast");
+  text.resize(static_cast<std::size_t>(length));
+  check(MPI_Bcast(text.data(), length, MPI_CHAR, root, MPI_COMM_WORLD), "MPI_Bcast");
+}
+
 void RankGroup::abort(const char* message, int code) const {
   std::fprintf(stderr, "%s\n", message);
   std::fflush(stderr);

@@ -29,6 +29,7 @@
 // and are meant to be held by every rank.
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "framework/spatial.hpp"
@@ -54,6 +55,11 @@ class RankGroup {
   std::vector<double> gather(const std::vector<double>& values) const;
   // The same into `all`, whose storage is reused: no allocation once it has grown.
   void gather(const std::vector<double>& values, std::vector<double>& all) const;
+  // Every rank's values, concatenated in rank order, on rank 0 only (the others get `all`
+  // empty): what one writer needs, without a copy of everything on every rank.
+  void gatherOnRoot(const std::vector<double>& values, std::vector<double>& all) const;
+  // Rank `root`'s text, on every rank.
+  void broadcast(std::string& text, int root) const;
   // Ends every rank: prints message on this rank's standard error, then MPI_Abort(code).
   [[noreturn]] void abort(const char* message, int code) const;
 

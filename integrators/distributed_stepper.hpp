@@ -41,12 +41,21 @@
 #include <chrono>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "contact/domain_decomposition.hpp"
 #include "integrators/step_data.hpp"
 
 namespace sweep {
+
+// A failure that every rank of a collective call throws alike, with the same message: the
+// caller may end the run on every rank without MPI_Abort.
+class CollectiveError : public std::runtime_error {
+ public:
+  explicit CollectiveError(const std::string& message) : std::runtime_error(message) {}
+};
 
 // How the contacts of several ranks on one body are solved together.
 enum class RankInterface {
@@ -90,14 +99,18 @@ class DistributedStepper {
 
   // Collective; every rank passes the same whole state.
   void reset(double t, const VectorX& q, const VectorX& v);
-  // Collective. The stats are this rank's, with active, iterations, cap_hit, status, residual
-  // and kinetic taken over every rank. An exception from one rank's step (a state that is no
-  // longer finite, a periodic reach beyond half the period) leaves the others waiting in a
-  // collective: the caller ends the job with RankGroup::abort, as bench/distributed_bench
-  // does. A ghost width too small for the margin throws on every rank.
+  // Collective. The stats are the whole scene's, summed (or the largest) over the ranks,
+  // except the timings, which are this rank's. A body that runs away (RunawayError) or a state
+  // no longer finite (CollectiveError) on any rank throws on every rank, with the message of
+  // the lowest rank that found it; so does a ghost width too small for the margin. Any
+  // other exception from one rank's step (a periodic reach beyond half the period) leaves the
+  // others waiting in a collective: the caller ends the job with RankGroup::abort.
   const StepStats& step();
   // Collective: the whole state, each body as its owner holds it, on every rank.
   void gatherState(VectorX& q, VectorX& v) const;
+  // Collective: every rank's contacts of the last step and their impulses, on rank 0 (the
+  // others get them empty); what a snapshot of the contact network draws.
+  void gatherContacts(std::vector<Contact>& contacts, std::vector<Vector3>& impulses) const;
 
   double time() const { return d_.t; }
   int ownedCount() const { return owned_.size(); }
@@ -126,6 +139,10 @@ class DistributedStepper {
     return settings_.interface == RankInterface::SplitMasses ? multiplicity_[body] : 1.0;
   }
   void reduceStats();
+  // this rank's verdict on the step: a body that ran away, or an owned grain whose state is no
+  // longer finite (failure_ empty: neither)
+  void findFailure();
+  void ownedEnergies(double& kinetic, double& potential) const;
   void writeState(const ParticleSet& set, int i);
 
   RankGroup ranks_;
@@ -135,6 +152,9 @@ class DistributedStepper {
   std::optional<DomainDecomposition> decomposition_;  // from reset on
   int nq_ = 0, nv_ = 0;                               // of each particle's floating joint
   std::vector<int> particle_body_;                    // the bodies with dofs (every one a particle)
+  std::vector<char> is_particle_;                     // per body
+  std::string failure_;                               // this step's, on this rank
+  bool runaway_ = false;
   ParticleSet owned_, ghosts_;
   std::vector<char> local_;        // per body: owned or ghost on this rank
   std::vector<int> owner_;         // per local body: its owner

@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
+#include <thread>
 
 #include "apps/sweep/bench.hpp"
 #include "apps/sweep/run.hpp"
@@ -17,6 +19,9 @@
 #include "apps/sweep/signals.hpp"
 #include "apps/sweep/viewer.hpp"
 #include "framework/error.hpp"
+#ifdef SWEEP_RANKS
+#include "apps/sweep/ranks_run.hpp"
+#endif
 
 namespace {
 
@@ -75,19 +80,31 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
   out << "\n";
 }
 
-// Started by mpirun / mpiexec as one of several processes, every one would run the whole scene
-// and write the same files: refused (issue #49: the step runs on ranks,
-// integrators/distributed_stepper.hpp, but `sweep run` does not drive it yet). The launchers
-// name the process count in the environment (Open MPI, MPICH's Hydra, MVAPICH, Slurm's PMI).
+#ifndef SWEEP_RANKS
+// Started by mpirun / mpiexec as one of several processes in a build without MPI, every one
+// would run the whole scene and write the same files: refused. The launchers name the process
+// count in the environment (Open MPI, MPICH's Hydra, MVAPICH, Slurm's PMI).
 void refuseSeveralRanks() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MV2_COMM_WORLD_SIZE"}) {
     const char* value = std::getenv(name);
     if (value == nullptr || std::atol(value) <= 1) continue;
     throw sweep::InputError(std::string("started as one of ") + value + " MPI processes (" + name +
                             "=" + value +
-                            "): sweep runs in one process, every process would write the same "
-                            "files; start one and use its cores with --threads N");
+                            "): this sweep was built without MPI and runs in one process; start "
+                            "one and use its cores with --threads N");
   }
+}
+
+#endif
+
+// Under several ranks each rank's threads share the node's cores: `threads: 0` (every core)
+// becomes the cores over the ranks on this node (Open MPI names them; otherwise all ranks).
+int threadsPerRank(int ranks) {
+  int on_node = ranks;
+  if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE"))
+    on_node = std::max(1, std::atoi(local));
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return std::max(1, cores / on_node);
 }
 
 void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::ostream& out) {
@@ -129,6 +146,10 @@ void printSummary(const sweep::RunSummary& s, const std::string& out_dir, std::o
   if (s.updates > 0)
     out << "  solver: " << s.updates << " local solves, "
         << 1e9 * s.solve_seconds / static_cast<double>(s.updates) << " ns each\n";
+  if (s.ranks > 1)
+    out << "  ranks: " << s.ranks << ", " << s.bytes_per_step << " bytes sent and "
+        << s.shared_bodies_per_step << " bodies shared per step, work imbalance up to "
+        << s.imbalance_max << "\n";
   if (!out_dir.empty()) out << "  results in " << out_dir << "/\n";
 }
 
@@ -213,15 +234,52 @@ static int runCommand(int argc, char** argv) {
                    "keep every N-th snapshot (and the last); default: every one, thinned to "
                    "keep the page within 500 MB");
 
+#ifdef SWEEP_RANKS
+  const sweep::RankGroup ranks = sweep::RankGroup::world();
+#else
+  struct {
+    int rank() const { return 0; }
+    int size() const { return 1; }
+  } ranks;
+#endif
+  // on several ranks every rank meets the same errors at the same point (agreeOnRanks): rank 0
+  // alone prints them, and the description, the progress and the summary
+  const bool root = ranks.rank() == 0;
+  std::ostringstream unused;
+  std::ostream& out = root ? std::cout : unused;
+  std::ostream& err = root ? std::cerr : unused;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
+    const int code = app.exit(e, out, err);
     return code == 0 ? 0 : 2;
   }
 
   try {
+#ifdef SWEEP_RANKS
+    // a launcher of another MPI than the one this sweep links starts each process alone: every
+    // one would run the whole scene and write the same files
+    std::string variable;
+    if (const int launched = sweep::launchedRanks(&variable); launched > 1 && ranks.size() == 1)
+      throw sweep::InputError("started as one of " + std::to_string(launched) + " MPI processes (" +
+                              variable +
+                              "), but MPI sees this process alone: the launcher is not the one "
+                              "of the MPI sweep was built with (Open MPI's mpirun); every "
+                              "process would write the same files");
+    if (ranks.size() > 1 && !run->parsed())
+      throw sweep::InputError("started as one of " + std::to_string(ranks.size()) +
+                              " MPI processes: only `sweep run` runs on ranks; start `sweep " +
+                              app.get_subcommands().front()->get_name() + "` as one process");
+#else
     if (run->parsed() || bench->parsed()) refuseSeveralRanks();
+#endif
+    if (bench->parsed()) {
+      // a bench times runs against each other: several processes would share the cores
+      for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MV2_COMM_WORLD_SIZE"})
+        if (const char* value = std::getenv(name); value != nullptr && std::atol(value) > 1)
+          throw sweep::InputError(std::string("bench: started as one of ") + value +
+                                  " MPI processes; start it as one");
+    }
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())
       throw sweep::InputError("--out: must name a folder, got ''");
@@ -240,39 +298,68 @@ static int runCommand(int argc, char** argv) {
       std::cout << "wrote " << page << "\n";
       return 0;
     }
-    sweep::SceneFile file = sweep::loadSceneFile(scene_path, overrides, settings_files);
-    if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
-    // given at all, whatever its value: -1 is refused like any other negative count
-    const bool threads_given = (run->parsed() && run->count("--threads") > 0) ||
-                               (bench->parsed() && bench->count("--threads") > 0);
-    if (threads_given) {
-      if (threads < 0 || threads > 1024)
-        throw sweep::InputError("--threads: must be in [0, 1024] (0: every core), got " +
-                                std::to_string(threads));
-      file.run.scheme.threads = threads;
-    }
-    if (row_storage == "generic") file.run.scheme.packed_rows = false;
-    if (row_storage == "body-form") file.run.scheme.compact_sphere_rows = false;
-    if (row_storage == "compact") file.run.scheme.compact_sphere_rows = true;
-    if (run->parsed() && run->count("--dt") > 0) {
-      if (!(dt > 0.0) || !std::isfinite(dt))
-        throw sweep::InputError("--dt: must be > 0, got " + sweep::exactNumber(dt));
-      file.run.scheme.h = dt;
-    }
-    if ((run->parsed() || bench->parsed()) &&
-        app.get_subcommand(run->parsed() ? "run" : "bench")->count("--t-end") > 0) {
-      if (!(t_end > 0.0) || !std::isfinite(t_end))
-        throw sweep::InputError("--t-end: must be > 0, got " + sweep::exactNumber(t_end));
-      file.run.t_end = t_end;
-    }
-    const sweep::Scene scene = sweep::buildSceneFile(file);
-    file.run.scheme.validate();
-    // what `run` refuses at load, `check` and the others refuse too, with the same words
+    // the scene with the command line's overrides, built and checked: every rank of a run on
+    // ranks does this by itself, and agrees on the outcome before the run
+    std::optional<sweep::SceneFile> loaded;
+    std::optional<sweep::Scene> built;
+    sweep::SavedState start;
+    std::exception_ptr load_error;
     try {
-      sweep::stepCount(0.0, file.run.t_end, file.run.scheme.h);
-    } catch (const sweep::InputError& e) {
-      throw sweep::InputError(scene_path + ": " + e.what());
+      loaded.emplace(sweep::loadSceneFile(scene_path, overrides, settings_files));
+      sweep::SceneFile& file = *loaded;
+      if (!scheme_name.empty()) file.run.scheme.scheme = sweep::schemeFromName(scheme_name);
+      // given at all, whatever its value: -1 is refused like any other negative count
+      const bool threads_given = (run->parsed() && run->count("--threads") > 0) ||
+                                 (bench->parsed() && bench->count("--threads") > 0);
+      if (threads_given) {
+        if (threads < 0 || threads > 1024)
+          throw sweep::InputError("--threads: must be in [0, 1024] (0: every core), got " +
+                                  std::to_string(threads));
+        file.run.scheme.threads = threads;
+      }
+      if (ranks.size() > 1 && file.run.scheme.threads == 0)
+        file.run.scheme.threads = threadsPerRank(ranks.size());
+      if (row_storage == "generic") file.run.scheme.packed_rows = false;
+      if (row_storage == "body-form") file.run.scheme.compact_sphere_rows = false;
+      if (row_storage == "compact") file.run.scheme.compact_sphere_rows = true;
+      if (run->parsed() && run->count("--dt") > 0) {
+        if (!(dt > 0.0) || !std::isfinite(dt))
+          throw sweep::InputError("--dt: must be > 0, got " + sweep::exactNumber(dt));
+        file.run.scheme.h = dt;
+      }
+      if ((run->parsed() || bench->parsed()) &&
+          app.get_subcommand(run->parsed() ? "run" : "bench")->count("--t-end") > 0) {
+        if (!(t_end > 0.0) || !std::isfinite(t_end))
+          throw sweep::InputError("--t-end: must be > 0, got " + sweep::exactNumber(t_end));
+        file.run.t_end = t_end;
+      }
+      built.emplace(sweep::buildSceneFile(file));
+      file.run.scheme.validate();
+      // what `run` refuses at load, `check` and the others refuse too, with the same words
+      try {
+        sweep::stepCount(0.0, file.run.t_end, file.run.scheme.h);
+      } catch (const sweep::InputError& e) {
+        throw sweep::InputError(scene_path + ": " + e.what());
+      }
+      if (run->parsed() && !initial_state.empty())
+        start = sweep::readSavedState(initial_state, *built, file.spec.max_initial_overlap);
+      if (run->parsed()) {
+        try {
+          sweep::stepCount(start.t, file.run.t_end, file.run.scheme.h);
+        } catch (const sweep::InputError& e) {
+          throw sweep::InputError(scene_path + ": " + e.what());
+        }
+      }
+    } catch (...) {
+      load_error = std::current_exception();
     }
+#ifdef SWEEP_RANKS
+    sweep::agreeOnRanks(ranks, load_error);
+#else
+    if (load_error) std::rethrow_exception(load_error);
+#endif
+    sweep::SceneFile& file = *loaded;
+    const sweep::Scene& scene = *built;
 
     if (check->parsed()) {
       describeScene(file, scene, std::cout);
@@ -285,29 +372,29 @@ static int runCommand(int argc, char** argv) {
       return 0;
     }
     if (run->parsed()) {
-      describeScene(file, scene, std::cout);
+      describeScene(file, scene, out);
+      if (ranks.size() > 1) out << "  on " << ranks.size() << " MPI ranks\n";
       sweep::RunOptions options;
       options.out_dir = out_dir;
       options.log = &std::cerr;
       options.progress = !quiet;
       options.progress_bar = isatty(STDERR_FILENO) != 0;
       options.stop = &sweep::stopFlag();
-      sweep::SavedState start;
       if (!initial_state.empty()) {
-        start = sweep::readSavedState(initial_state, scene, file.spec.max_initial_overlap);
         options.start = &start;
-        std::cout << "  starting from " << initial_state << " at t = " << start.t << " s\n";
-      }
-      try {
-        sweep::stepCount(start.t, file.run.t_end, file.run.scheme.h);
-      } catch (const sweep::InputError& e) {
-        throw sweep::InputError(scene_path + ": " + e.what());
+        out << "  starting from " << initial_state << " at t = " << start.t << " s\n";
       }
       const sweep::CooperativeStop polled;  // the loop stops between steps
+#ifdef SWEEP_RANKS
+      const sweep::RunSummary summary =
+          ranks.size() > 1 ? sweep::runSceneOnRanks(ranks, scene, file.run, options)
+                           : sweep::runScene(scene, file.run, options);
+#else
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);
-      printSummary(summary, out_dir, std::cout);
+#endif
+      printSummary(summary, out_dir, out);
       if (!summary.failure.empty()) {
-        std::cerr << "sweep: failed: " << summary.failure << " (outputs written up to it)\n";
+        err << "sweep: failed: " << summary.failure << " (outputs written up to it)\n";
         return 1;
       }
       return summary.interrupted ? sweep::stopExitCode() : 0;
@@ -320,15 +407,21 @@ static int runCommand(int argc, char** argv) {
     const int code = sweep::runBench(file, scene, bench_options, std::cout);
     return code == 130 ? sweep::stopExitCode() : code;
   } catch (const sweep::InputError& e) {
-    std::cerr << "sweep: error: " << e.what() << "\n";
+    err << "sweep: error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << "sweep: failed: " << e.what() << "\n";
+    err << "sweep: failed: " << e.what() << "\n";
     return 1;
   }
 }
 
 int main(int argc, char** argv) {
+#ifdef SWEEP_RANKS
+  // started by a launcher as one of several processes: MPI for the life of the command; one
+  // process (or one rank) runs without it, exactly as a build without MPI
+  std::optional<sweep::MpiSession> mpi;
+  if (sweep::launchedRanks() > 1) mpi.emplace(argc, argv);
+#endif
   const int code = runCommand(argc, argv);
   // a report lost on a full disk or a closed pipe is a failed run, not a silent success
   std::cout.flush();

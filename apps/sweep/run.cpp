@@ -1,5 +1,7 @@
 #include "apps/sweep/run.hpp"
 
+#include "apps/sweep/run_recorder.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -25,8 +27,6 @@
 
 namespace sweep {
 
-namespace {
-
 namespace fs = std::filesystem;
 
 double processCpuSeconds() {
@@ -34,6 +34,8 @@ double processCpuSeconds() {
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
+
+namespace {
 
 std::string formatDuration(double seconds) {
   std::ostringstream s;
@@ -45,6 +47,8 @@ std::string formatDuration(double seconds) {
   s << std::setw(total >= 60 ? 2 : 1) << std::setfill('0') << total % 60 << "s";
   return s.str();
 }
+
+}  // namespace
 
 // A file written step by step under its temporary name (PATH.partial, removed if a signal stops
 // the process mid-step), renamed into place when the run ends
@@ -71,17 +75,21 @@ struct StreamedFile {
   std::ofstream out;
 };
 
+namespace {
+
 // stats.csv: a header of the statistics' names, then one row per step (visitStepStats)
-void writeStatsHeader(std::ostream& out, bool timings) {
+void writeStatsHeader(std::ostream& out, bool timings, const std::vector<std::string>& extra) {
   const char* separator = "";
   visitStepStats(StepStats{}, timings, [&](const char* name, const auto&) {
     out << separator << name;
     separator = ",";
   });
+  for (const std::string& name : extra) out << ',' << name;
   out << '\n';
 }
 
-void appendStatsRow(std::ostream& out, const StepStats& s, bool timings) {
+void appendStatsRow(std::ostream& out, const StepStats& s, bool timings,
+                    const std::vector<double>& extra) {
   const char* separator = "";
   visitStepStats(s, timings, [&](const char*, const auto& value) {
     using Value = std::decay_t<decltype(value)>;
@@ -96,8 +104,11 @@ void appendStatsRow(std::ostream& out, const StepStats& s, bool timings) {
     else
       out << value;
   });
+  for (const double x : extra) out << ',' << exactNumber(x);
   out << '\n';
 }
+
+}  // namespace
 
 class Progress {
  public:
@@ -137,8 +148,6 @@ class Progress {
   long steps_;
   Clock::time_point start_, last_;
 };
-
-}  // namespace
 
 long stepCount(double t_start, double t_end, double h) {
   if (!(h > 0.0) || !std::isfinite(h))
@@ -206,20 +215,22 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
   }
 }
 
-RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
-  settings.scheme.validate();
-  const double h = settings.scheme.h;
-  const double t_start = options.start ? options.start->t : 0.0;
-  const long steps = stepCount(t_start, settings.t_end, h);
-  const bool files = !options.out_dir.empty();
-  if (files) {
+RunRecorder::RunRecorder(const Scene& scene, const RunSettings& settings, const RunOptions& options,
+                         double t_start, long steps, bool files,
+                         std::vector<std::string> extra_columns)
+    : scene_(scene),
+      settings_(settings),
+      options_(options),
+      files_(files && !options.out_dir.empty()),
+      t_start_(t_start),
+      extra_columns_(std::move(extra_columns)),
+      progress_(std::make_unique<Progress>(options, steps)) {
+  if (files_) {
     std::error_code error;
     fs::create_directories(options.out_dir, error);
     if (error)
       throw std::runtime_error(options.out_dir + ": cannot create the folder: " + error.message());
-  }
-  // every output path checked before the first step, not found when the run ends
-  if (files) {
+    // every output path checked before the first step, not found when the run ends
     std::vector<std::string> outputs{"final_state.csv", "summary.json"};
     if (settings.output.stats) outputs.push_back("stats.csv");
     if (settings.output.stats && !scene.model.actuators.empty()) outputs.push_back("actuators.csv");
@@ -227,20 +238,123 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
     if (settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0)
       outputs.insert(outputs.end(), {"snapshots.pvd", "contacts.pvd"});
     for (const std::string& name : outputs) requireOutputFile(options.out_dir + "/" + name);
-  }
-  std::optional<StreamedFile> stats, actuators;
-  if (files && settings.output.stats) {
-    stats.emplace(options.out_dir + "/stats.csv");
-    writeStatsHeader(stats->out, settings.output.timings);
-    if (!scene.model.actuators.empty()) {
-      actuators.emplace(options.out_dir + "/actuators.csv");
-      writeActuatorHeader(actuators->out, scene.model);
+    if (settings.output.stats) {
+      stats_ = std::make_unique<StreamedFile>(options.out_dir + "/stats.csv");
+      writeStatsHeader(stats_->out, settings.output.timings, extra_columns_);
     }
+    if (settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0)
+      vtk_ = std::make_unique<VtkSeries>(scene, options.out_dir);
+  }
+  summary_.scheme = enumName(settings.scheme.scheme);
+  summary_.threads = settings.scheme.threadCount();
+  summary_.dt = settings.scheme.h;
+  summary_.t_end = settings.t_end;
+  summary_.smallest_size = scene.cmodel.smallest_size;
+  next_snapshot_ = t_start + settings.output.vtk_interval;
+}
+
+RunRecorder::~RunRecorder() = default;
+
+void RunRecorder::snapshot(const SnapshotView& view) {
+  if (vtk_) vtk_->write(view);
+}
+
+bool RunRecorder::addStep(const StepStats& s, const std::vector<double>& extra) {
+  const double h = settings_.scheme.h;
+  summary_.steps = s.step;
+  summary_.t_reached = s.t;
+  summary_.penetration_cumulative += s.penetration_sum;
+  summary_.penetration_time_integral += h * s.penetration_sum;
+  summary_.penetration_peak = std::max(summary_.penetration_peak, s.penetration_max);
+  overlapping_ += s.penetration_count;
+  total_.add(s.iterations_stage1 + s.iterations_stage2);
+  stage1_.add(s.iterations_stage1);
+  stage2_.add(s.iterations_stage2);
+  if (options_.keep_iterations)
+    summary_.iterations_per_step.push_back(s.iterations_stage1 + s.iterations_stage2);
+  summary_.cap_hit_steps += s.cap_hit ? 1 : 0;
+  active_sum_ += s.active;
+  candidate_sum_ += s.candidates;
+  solves_sum_ += s.solves;
+  summary_.max_solves = std::max(summary_.max_solves, s.solves);
+  summary_.redetection_steps += s.redetections > 0 ? 1 : 0;
+  summary_.margin_outrun_steps += s.margin_outrun ? 1 : 0;
+  summary_.projection_steps += s.projection_rounds > 0 ? 1 : 0;
+  summary_.projection_rounds += s.projection_rounds;
+  summary_.projection_iterations += s.projection_iterations;
+  summary_.max_active = std::max(summary_.max_active, s.active);
+  summary_.updates += s.updates;
+  summary_.solve_seconds += s.t_solve;
+  if (stats_) {
+    appendStatsRow(stats_->out, s, settings_.output.timings, extra);
+    stats_->checkEvery(s.step);
+  }
+  if (!vtk_) return false;
+  const OutputSettings& output = settings_.output;
+  const bool every = output.vtk_every > 0 && s.step % output.vtk_every == 0;
+  const bool interval = output.vtk_interval > 0.0 && s.t >= next_snapshot_ - 1e-9 * h;
+  // the next multiple of the interval after t, computed rather than stepped to: an interval
+  // far below h would take a loop of (h / interval) additions
+  if (interval)
+    next_snapshot_ =
+        t_start_ +
+        output.vtk_interval * (std::floor((s.t + 1e-9 * h - t_start_) / output.vtk_interval) + 1.0);
+  return every || interval;
+}
+
+void RunRecorder::progress(long step, double t, bool last) {
+  progress_->update(step, t, last);
+}
+
+void RunRecorder::finish(double energy_final, double t, const VectorX& q, const VectorX& v,
+                         double cpu_seconds, double wall_seconds) {
+  RunSummary& summary = summary_;
+  summary.cpu_seconds = cpu_seconds;
+  summary.wall_seconds = wall_seconds;
+  summary.energy_final = energy_final;
+  const double steps = static_cast<double>(summary.steps);
+  summary.mean_active = summary.steps > 0 ? active_sum_ / steps : 0.0;
+  summary.penetration_mean =
+      overlapping_ > 0.0 ? summary.penetration_cumulative / overlapping_ : 0.0;
+  if (summary.steps > 0) {
+    summary.mean_candidates = candidate_sum_ / steps;
+    summary.mean_solves = solves_sum_ / steps;
+  }
+  summary.iterations = total_.distribution();
+  summary.iterations_stage1 = stage1_.distribution();
+  summary.iterations_stage2 = stage2_.distribution();
+  if (stats_) stats_->finish();
+  if (!files_) return;
+  // the state the run ended in, exactly (17 digits): to compare runs bit for bit, or to
+  // start another from it
+  std::ostringstream state;
+  state << "vector,index,value\n";
+  state << "t,0," << exactNumber(t) << '\n';
+  for (Eigen::Index i = 0; i < q.size(); ++i)
+    state << "q," << i << ',' << exactNumber(q[i]) << '\n';
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    state << "v," << i << ',' << exactNumber(v[i]) << '\n';
+  writeFileAtomically(options_.out_dir + "/final_state.csv", state.str());
+  // the summary first: it holds the run's figures, whatever happens to the layer's files
+  writeSummaryJson(summary, options_.out_dir + "/summary.json");
+  if (settings_.output.layer) {
+    const LayerMetrics layer = measureLayer(scene_, q, *settings_.output.layer, &v);
+    writeLayerJson(layer, *settings_.output.layer, options_.out_dir + "/layer.json");
+    writeHeightMapPng(layer, *settings_.output.layer, options_.out_dir + "/layer_height.png");
+  }
+}
+
+RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOptions& options) {
+  settings.scheme.validate();
+  const double t_start = options.start ? options.start->t : 0.0;
+  const long steps = stepCount(t_start, settings.t_end, settings.scheme.h);
+  RunRecorder recorder(scene, settings, options, t_start, steps, true);
+  std::optional<StreamedFile> actuators;
+  if (!options.out_dir.empty() && settings.output.stats && !scene.model.actuators.empty()) {
+    actuators.emplace(options.out_dir + "/actuators.csv");
+    writeActuatorHeader(actuators->out, scene.model);
   }
   ActuatorTally tally(scene.model);
-  std::unique_ptr<VtkSeries> vtk;
-  const bool snapshots = settings.output.vtk_every > 0 || settings.output.vtk_interval > 0.0;
-  if (files && snapshots) vtk = std::make_unique<VtkSeries>(scene, options.out_dir);
 
   TimeStepper stepper(scene.model, scene.cmodel, settings.scheme, scene.forces);
   if (options.start)
@@ -248,27 +362,12 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   else
     stepper.reset(0.0, scene.q0, scene.v0);
 
-  RunSummary summary;
-  summary.scheme = enumName(settings.scheme.scheme);
-  summary.threads = settings.scheme.threadCount();
-  summary.dt = h;
-  summary.t_end = settings.t_end;
+  RunSummary& summary = recorder.summary();
   summary.margin_verified =
       scene.cmodel.settings.verify_margin && settings.scheme.normal_law != NormalLaw::Vel;
   summary.energy_initial = stepper.energy();
-  // counts of each iteration number, not a value per step: a run of 10^9 steps must not hold
-  // (or reserve) 10^9 of them
-  IterationHistogram total, stage1, stage2;
-  std::vector<int> per_step;
-  double active_sum = 0.0, candidate_sum = 0.0, solves_sum = 0.0;
-  double overlapping = 0.0;  // contacts overlapping at step ends, summed over steps
-  double next_snapshot = 0.0;
-  if (vtk) {
-    vtk->write(stepper);
-    next_snapshot = t_start + settings.output.vtk_interval;
-  }
+  recorder.snapshot(snapshotOf(stepper));
 
-  Progress progress(options, steps);
   const auto wall_start = std::chrono::steady_clock::now();
   const double cpu_start = processCpuSeconds();
   for (long k = 0; k < steps; ++k) {
@@ -286,96 +385,25 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       throw std::runtime_error("step " + std::to_string(s.step) + " (t = " + exactNumber(s.t) +
                                "): the state is no longer finite");
     if (divergedSolve(s)) throw std::runtime_error(divergedSolveMessage(s));
-    summary.steps = s.step;
-    summary.t_reached = s.t;
-    summary.penetration_cumulative += s.penetration_sum;
-    summary.penetration_time_integral += h * s.penetration_sum;
-    summary.penetration_peak = std::max(summary.penetration_peak, s.penetration_max);
-    overlapping += s.penetration_count;
-    total.add(s.iterations_stage1 + s.iterations_stage2);
-    stage1.add(s.iterations_stage1);
-    stage2.add(s.iterations_stage2);
-    if (options.keep_iterations) per_step.push_back(s.iterations_stage1 + s.iterations_stage2);
-    summary.cap_hit_steps += s.cap_hit ? 1 : 0;
-    active_sum += s.active;
-    candidate_sum += s.candidates;
-    solves_sum += s.solves;
-    summary.max_solves = std::max(summary.max_solves, s.solves);
-    summary.redetection_steps += s.redetections > 0 ? 1 : 0;
-    summary.margin_outrun_steps += s.margin_outrun ? 1 : 0;
-    summary.projection_steps += s.projection_rounds > 0 ? 1 : 0;
-    summary.projection_rounds += s.projection_rounds;
-    summary.projection_iterations += s.projection_iterations;
-    summary.max_active = std::max(summary.max_active, s.active);
-    summary.updates += s.updates;
-    summary.solve_seconds += s.t_solve;
-    if (stats) {
-      appendStatsRow(stats->out, s, settings.output.timings);
-      stats->checkEvery(s.step);
-    }
+    if (recorder.addStep(s)) recorder.snapshot(snapshotOf(stepper));
     tally.add(scene.model, stepper);
     if (actuators) {
       appendActuatorRow(actuators->out, scene.model, stepper);
       actuators->checkEvery(s.step);
     }
-    if (vtk) {
-      const bool every = settings.output.vtk_every > 0 && s.step % settings.output.vtk_every == 0;
-      const bool interval = settings.output.vtk_interval > 0.0 && s.t >= next_snapshot - 1e-9 * h;
-      // the next multiple of the interval after t, computed rather than stepped to: an interval
-      // far below h would take a loop of (h / interval) additions
-      if (interval)
-        next_snapshot =
-            t_start +
-            settings.output.vtk_interval *
-                (std::floor((s.t + 1e-9 * h - t_start) / settings.output.vtk_interval) + 1.0);
-      if (every || interval) vtk->write(stepper);
-    }
     const bool stopping = options.stop != nullptr && options.stop->load();
-    progress.update(s.step, s.t, k + 1 == steps || stopping);
+    recorder.progress(s.step, s.t, k + 1 == steps || stopping);
     if (stopping) {
       summary.interrupted = true;
       break;
     }
   }
-  summary.cpu_seconds = processCpuSeconds() - cpu_start;
-  summary.wall_seconds =
+  const double cpu = processCpuSeconds() - cpu_start;
+  const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  summary.energy_final = stepper.energy();
-  summary.mean_active = summary.steps > 0 ? active_sum / static_cast<double>(summary.steps) : 0.0;
-  summary.penetration_mean = overlapping > 0.0 ? summary.penetration_cumulative / overlapping : 0.0;
-  summary.smallest_size = scene.cmodel.smallest_size;
-  if (summary.steps > 0) {
-    summary.mean_candidates = candidate_sum / static_cast<double>(summary.steps);
-    summary.mean_solves = solves_sum / static_cast<double>(summary.steps);
-  }
-  summary.iterations_per_step = std::move(per_step);
-  summary.iterations = total.distribution();
-  summary.iterations_stage1 = stage1.distribution();
-  summary.iterations_stage2 = stage2.distribution();
-
   summary.actuators = tally.summary(scene.model);
-  if (stats) stats->finish();
   if (actuators) actuators->finish();
-  if (files) {
-    // the state the run ended in, exactly (17 digits): to compare runs bit for bit, or to
-    // start another from it
-    std::ostringstream state;
-    state << "vector,index,value\n";
-    state << "t,0," << exactNumber(stepper.time()) << '\n';
-    for (Eigen::Index i = 0; i < stepper.q().size(); ++i)
-      state << "q," << i << ',' << exactNumber(stepper.q()[i]) << '\n';
-    for (Eigen::Index i = 0; i < stepper.v().size(); ++i)
-      state << "v," << i << ',' << exactNumber(stepper.v()[i]) << '\n';
-    writeFileAtomically(options.out_dir + "/final_state.csv", state.str());
-    // the summary first: it holds the run's figures, whatever happens to the layer's files
-    writeSummaryJson(summary, options.out_dir + "/summary.json");
-    if (settings.output.layer) {
-      const LayerMetrics layer =
-          measureLayer(scene, stepper.q(), *settings.output.layer, &stepper.v());
-      writeLayerJson(layer, *settings.output.layer, options.out_dir + "/layer.json");
-      writeHeightMapPng(layer, *settings.output.layer, options.out_dir + "/layer_height.png");
-    }
-  }
+  recorder.finish(stepper.energy(), stepper.time(), stepper.q(), stepper.v(), cpu, wall);
   return summary;
 }
 

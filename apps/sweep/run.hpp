@@ -98,6 +98,10 @@ struct RunSummary {
   double solve_seconds = 0.0;  // time in stage 5, all steps
   double energy_initial = 0.0, energy_final = 0.0;
   bool interrupted = false;
+  // a run on MPI ranks (runSceneOnRanks): their count, the bytes they sent and the bodies
+  // they shared per step (means over the steps), and the largest work imbalance of a step
+  int ranks = 1;
+  double bytes_per_step = 0.0, shared_bodies_per_step = 0.0, imbalance_max = 0.0;
   std::vector<int> iterations_per_step;  // when RunOptions::keep_iterations
   std::vector<ActuatorSummary> actuators;
 };

@@ -90,6 +90,11 @@ nlohmann::ordered_json summaryJson(const RunSummary& s) {
                   s.updates > 0 ? 1e9 * s.solve_seconds / static_cast<double>(s.updates) : 0.0}};
   j["energy"] = {{"initial", s.energy_initial}, {"final", s.energy_final}};
   if (!s.actuators.empty()) j["actuators"] = actuatorsJson(s.actuators);
+  if (s.ranks > 1)
+    j["ranks"] = {{"count", s.ranks},
+                  {"bytes_per_step", s.bytes_per_step},
+                  {"shared_bodies_per_step", s.shared_bodies_per_step},
+                  {"imbalance_max", s.imbalance_max}};
   return j;
 }
 

@@ -31,11 +31,17 @@ extern "C" void onStopSignal(int signal) {
   stopFlag().store(true);
 }
 
+}  // namespace
+
+void removePartialFiles() {
+  std::lock_guard<std::mutex> lock(partialMutex());
+  for (const std::string& path : partialFiles()) std::remove(path.c_str());
+}
+
+namespace {
+
 [[noreturn]] void stopNow() {
-  {
-    std::lock_guard<std::mutex> lock(partialMutex());
-    for (const std::string& path : partialFiles()) std::remove(path.c_str());
-  }
+  removePartialFiles();
   std::fflush(nullptr);
   _exit(stopExitCode());
 }

@@ -30,6 +30,9 @@ class CooperativeStop {
   CooperativeStop& operator=(const CooperativeStop&) = delete;
 };
 
+// Removes every partial file open now: before a process ends another way (MPI_Abort).
+void removePartialFiles();
+
 // A file being written under a temporary name: removed by the watchdog if the process is
 // stopped before the owner renames it into place (or removes it).
 class PartialFile {

@@ -87,18 +87,18 @@ VtkSeries::VtkSeries(const Scene& scene, const std::string& out_dir)
   }
 }
 
-void VtkSeries::write(const TimeStepper& stepper) {
+void VtkSeries::write(const SnapshotView& view) {
   const Model& model = scene_.model;
   const ContactModel& cmodel = scene_.cmodel;
-  const double t = stepper.time();
-  forwardKinematics(model, data_, stepper.q(), stepper.v());
+  const double t = view.t;
+  forwardKinematics(model, data_, view.q, view.v);
   updateGeometryPoses(model, data_, cmodel, t, cdata_);
 
   // net contact force of the last step on every dynamic body, world frame
   std::vector<Vector3> force(model.bodies.size(), Vector3::Zero());
-  const auto& contacts = stepper.contactData().contacts;
-  const auto& impulses = stepper.impulses();
-  const double h = stepper.settings().h;
+  const auto& contacts = view.contacts;
+  const auto& impulses = view.impulses;
+  const double h = view.h;
   for (std::size_t c = 0; c < contacts.size() && c < impulses.size(); ++c) {
     const Contact& k = contacts[c];
     const Vector3 f =
@@ -290,15 +290,15 @@ void VtkSeries::write(const TimeStepper& stepper) {
   number << std::setw(6) << std::setfill('0') << entries_.size() << ".vtp";
   const std::string name = "vtk/snapshot_" + number.str();
   writeFileAtomically(dir_ + "/" + name, x.str());
-  writeContacts(stepper, "vtk/contacts_" + number.str());
+  writeContacts(view, "vtk/contacts_" + number.str());
   entries_.emplace_back(t, name);
   writeCollection(dir_ + "/snapshots.pvd", entries_);
 }
 
-void VtkSeries::writeContacts(const TimeStepper& stepper, const std::string& name) {
-  const auto& contacts = stepper.contactData().contacts;
-  const auto& impulses = stepper.impulses();
-  const double h = stepper.settings().h;
+void VtkSeries::writeContacts(const SnapshotView& view, const std::string& name) {
+  const auto& contacts = view.contacts;
+  const auto& impulses = view.impulses;
+  const double h = view.h;
   std::vector<Vector3> points, normal, tangential_impulse, force;
   std::vector<double> normal_impulse, gap;
   std::vector<int> body_a, body_b;
@@ -360,7 +360,7 @@ void VtkSeries::writeContacts(const TimeStepper& stepper, const std::string& nam
   cells("Lines", 1, 2);
   x << "</Piece>\n</PolyData>\n</VTKFile>\n";
   writeFileAtomically(dir_ + "/" + name, x.str());
-  contact_entries_.emplace_back(stepper.time(), name);
+  contact_entries_.emplace_back(view.t, name);
   writeCollection(dir_ + "/contacts.pvd", contact_entries_);
 }
 

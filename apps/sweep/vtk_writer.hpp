@@ -23,10 +23,26 @@ namespace sweep {
 // collision shape of a link that its visuals draw (ParaView may show it; the viewer does not).
 inline constexpr int kRoleCollision = 0, kRoleVisual = 1, kRoleHidden = 2;
 
+// What one snapshot draws: the state at time t, and the last step (of length h)'s contacts
+// with their impulses (normal, tangents), one per contact.
+struct SnapshotView {
+  double t = 0.0, h = 0.0;
+  const VectorX& q;
+  const VectorX& v;
+  const std::vector<Contact>& contacts;
+  const std::vector<Vector3>& impulses;
+};
+
+inline SnapshotView snapshotOf(const TimeStepper& stepper) {
+  return SnapshotView{stepper.time(), stepper.settings().h,           stepper.q(),
+                      stepper.v(),    stepper.contactData().contacts, stepper.impulses()};
+}
+
 class VtkSeries {
  public:
   VtkSeries(const Scene& scene, const std::string& out_dir);
-  void write(const TimeStepper& stepper);
+  void write(const SnapshotView& view);
+  void write(const TimeStepper& stepper) { write(snapshotOf(stepper)); }
   int count() const { return static_cast<int>(entries_.size()); }
 
  private:
@@ -45,7 +61,7 @@ class VtkSeries {
   std::vector<VisualPart> visuals_;
   std::vector<char> drawn_by_visuals_;  // per body
 
-  void writeContacts(const TimeStepper& stepper, const std::string& name);
+  void writeContacts(const SnapshotView& view, const std::string& name);
 };
 
 }  // namespace sweep
