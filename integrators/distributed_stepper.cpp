@@ -21,7 +21,8 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
       settings_(distributed),
       m_(model, cmodel, settings, {}),
       d_(model, cmodel, m_.settings) {
-  if (cmodel.dimension != 3) refuse("dimension", "only 3D scenes run on ranks");
+  if (cmodel.dimension == 2 && distributed.interface == RankInterface::SplitMasses)
+    refuse("interface", "split masses run on 3D spheres' rows only; 2D scenes take ordered sweeps");
   if (m_.settings.scheme != Scheme::MoreauJean)
     refuse("scheme.name", "only moreau-jean runs on ranks");
   if (m_.settings.screening)
@@ -44,12 +45,25 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
     refuse("ghost_width", std::to_string(settings_.ghost_width) + " is not a width");
   findFreeParticles(model, d_.model_data, cmodel, d_.problem_ws);
   const auto& spheres = d_.problem_ws.sphere_particles;
+  // 2D: a disk centred on a body of its own, free in the plane
+  std::vector<char> centred_disk(model.bodies.size(), 0), other_shape(model.bodies.size(), 0);
+  for (const Geometry& g : cmodel.geometries) {
+    if (g.body.kind != BodyRef::Kind::Dynamic) continue;
+    const bool disk = g.shape.type == ShapeType::Disk && g.placement.translation.isZero(0.0);
+    (disk ? centred_disk : other_shape)[g.body.index] = 1;
+  }
   for (const Component& c : model.components) {
     const Body& body = model.bodies[c.first_body];
-    if (c.end_body != c.first_body + 1 || spheres[c.first_body].v_index < 0)
-      refuse("bodies", "'" + body.name +
-                           "' is not a free sphere: only free spheres (and bodies without dofs) "
-                           "run on ranks");
+    const bool single = c.end_body == c.first_body + 1;
+    const bool particle = cmodel.dimension == 3
+                              ? single && spheres[c.first_body].v_index >= 0
+                              : single && body.parent < 0 && body.joint.type == JointType::Planar &&
+                                    centred_disk[c.first_body] && !other_shape[c.first_body];
+    if (!particle)
+      refuse("bodies", "'" + body.name + "' is not a free " +
+                           (cmodel.dimension == 3 ? "sphere" : "disk") + ": only free " +
+                           (cmodel.dimension == 3 ? "spheres" : "disks") +
+                           " (and bodies without dofs) run on ranks");
     particle_body_.push_back(c.first_body);
     nq_ = c.nq;
     nv_ = c.nv;
@@ -60,10 +74,11 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
   const std::size_t bodies = model.bodies.size();
   base_inverse_mass_.assign(bodies, 0.0);
   base_inverse_inertia_.assign(bodies, 0.0);
-  for (const int b : particle_body_) {
-    base_inverse_mass_[b] = spheres[b].inverse_mass;
-    base_inverse_inertia_[b] = spheres[b].inverse_inertia;
-  }
+  if (cmodel.dimension == 3)
+    for (const int b : particle_body_) {
+      base_inverse_mass_[b] = spheres[b].inverse_mass;
+      base_inverse_inertia_[b] = spheres[b].inverse_inertia;
+    }
   is_particle_.assign(bodies, 0);
   for (const int b : particle_body_) is_particle_[b] = 1;
   local_.assign(bodies, 0);
@@ -80,6 +95,14 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
   receive_.resize(size);
 }
 
+Vector3 DistributedStepper::centre(const Body& body, const VectorX& q) const {
+  if (body.joint.type == JointType::Planar)
+    return body.joint_placement.apply(body.joint.plane_x * q[body.q_index] +
+                                      body.joint.plane_y * q[body.q_index + 1]);
+  // a free sphere's joint frame has the world's axes (findFreeParticles)
+  return body.joint_placement.translation + q.segment<3>(body.q_index);
+}
+
 void DistributedStepper::writeState(const ParticleSet& set, int i) {
   const Body& body = m_.model.bodies[set.id[i]];
   const double* payload = set.payload.data() + static_cast<std::size_t>(i) * (nq_ + nv_);
@@ -92,12 +115,9 @@ void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
   d_.body_rank.assign(m_.model.bodies.size(), -1);
   d_.rank = ranks_.rank();
   DecompositionSettings ds;
-  ds.dimension = 3;
+  ds.dimension = m_.cmodel.dimension;
   Eigen::AlignedBox3d box;
-  for (const int b : particle_body_) {
-    const Body& body = m_.model.bodies[b];
-    box.extend(body.joint_placement.translation + q.segment<3>(body.q_index));
-  }
+  for (const int b : particle_body_) box.extend(centre(m_.model.bodies[b], q));
   if (box.isEmpty()) box.extend(Vector3::Zero());
   ds.lower = box.min() - Vector3::Constant(largest_diameter_);
   ds.upper = box.max() + Vector3::Constant(largest_diameter_);
@@ -129,7 +149,7 @@ void DistributedStepper::refreshOwnership() {
   const int width = nq_ + nv_;
   for (int i = 0; i < owned_.size(); ++i) {
     const Body& body = m_.model.bodies[owned_.id[i]];
-    owned_.position[i] = body.joint_placement.translation + d_.q.segment<3>(body.q_index);
+    owned_.position[i] = centre(body, d_.q);
     owned_.work[i] = 1 + contact_count_[owned_.id[i]];
     double* payload = owned_.payload.data() + static_cast<std::size_t>(i) * width;
     for (int k = 0; k < nq_; ++k) payload[k] = d_.q[body.q_index + k];

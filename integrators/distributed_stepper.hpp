@@ -33,8 +33,9 @@
 // and v (ghost exchange), and detection bins the owned and ghost grains only. Every rank holds
 // the whole Model and state vectors; what it does not own or see is at rest and stale.
 //
-// Scope: 3D scenes whose bodies with dofs are all free spheres (walls, plates, blades and
-// other driven or fixed shapes are held by every rank), scheme A, no candidate screening, no
+// Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
+// dofs are all free disks (ordered sweeps only); walls, plates, blades and other driven or
+// fixed shapes are held by every rank. Scheme A, no candidate screening, no
 // position projection, no adhesion, no actuators, and no re-detection on the end velocities
 // (the VEL law, or detection.verify_margin off); the constructor says which field is not
 // supported.
@@ -144,6 +145,8 @@ class DistributedStepper {
   void findFailure();
   void ownedEnergies(double& kinetic, double& potential) const;
   void writeState(const ParticleSet& set, int i);
+  // a grain's centre at q: its body's origin (the grain is centred on it)
+  Vector3 centre(const Body& body, const VectorX& q) const;
 
   RankGroup ranks_;
   DistributedSettings settings_;

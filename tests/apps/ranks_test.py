@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """`mpiexec -n N sweep run` against `sweep run` (issue #49): the reduced powder bed as a lattice
 of 800 equal spheres falling onto the rough plate before the blade comes
-(tests/data/ranks_lattice.yaml), on 1, 2 and 3 ranks. Solved to 1e-10, every rank count ends
+(tests/data/ranks_lattice.yaml), on 1, 2 and 3 ranks, and the 2D funnel on 2 and 3. Solved to 1e-10, every rank count ends
 within 1e-9 m and 1e-6 m/s (surface speeds of the spins included) of the single process (the
 ranks sweep the rows in another order); the statistics summed over the ranks (contacts,
 penetration, energy) agree; the same count repeats to the bit; a state saved by the single
@@ -160,10 +160,39 @@ class RanksTest(unittest.TestCase):
                          read_state(os.path.join(self.single, "final_state.csv")), 1e-9, 1e-6)
         self.assertEqual(len(read_stats(os.path.join(out, "stats.csv"))), 100)
 
+    def test_the_2d_funnel_on_ranks(self):
+        """500 disks fall into the funnel (200 steps, before the shutter opens), solved to
+        1e-10: 2 and 3 ranks end within 1e-9 m and 1e-6 m/s of the single process."""
+        funnel = [os.path.join(SOURCE, "examples/funnel/funnel.yaml"), "--scheme", "moreau-jean",
+                  "--set", "generators[0].count=500", "--set", "generators[0].orifice=0.0062",
+                  "--set", "time.end=0.02", "--set", "scheme.coulomb.tolerance=1e-10",
+                  "--set", "scheme.coulomb.max_iterations=5000", "--threads", "1", "--quiet"]
+        single = os.path.join(self.dir, "funnel_single")
+        result = run(0, funnel + ["--out", single])
+        self.assertEqual(result.returncode, 0, result.stderr)
+        reference = read_state(os.path.join(single, "final_state.csv"))
+        for ranks in (2, 3):
+            with self.subTest(ranks=ranks):
+                out = os.path.join(self.dir, f"funnel{ranks}")
+                result = run(ranks, funnel + ["--out", out])
+                self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+                state = read_state(os.path.join(out, "final_state.csv"))
+                bodies = len(reference["q"]) // 3  # planar: x, y, angle
+                dx = max(abs(state["q"][3 * i + k] - reference["q"][3 * i + k])
+                         for i in range(bodies) for k in range(2))
+                dv = max(abs(state["v"][3 * i + k] - reference["v"][3 * i + k]) *
+                         (1.0 if k < 2 else 0.3e-3) for i in range(bodies) for k in range(3))
+                self.assertLess(dx, 1e-9)
+                self.assertLess(dv, 1e-6)
+                summary = read_json(os.path.join(out, "summary.json"))
+                self.assertGreater(summary["ranks"]["shared_bodies_per_step"], 0)
+
     def test_bad_input_ends_every_rank_with_one_message(self):
         cases = [
-            # outside the distributed step's scope: a 2D scene
-            ([os.path.join(SOURCE, "examples/funnel/funnel.yaml")], "dimension"),
+            # outside the distributed step's scope: a URDF arm
+            ([os.path.join(SOURCE, "examples/archetypes/arm_on_table.yaml"), "--set",
+              "scheme.projection.max_rounds=0", "--set", "scheme.normal_law=vel"],
+             "joint limits"),
             # a field every rank finds wrong
             ([SCENE, "--set", "time.step=-1"], "time.step"),
             # a file that is not there
