@@ -273,13 +273,6 @@ static int runCommand(int argc, char** argv) {
 #else
     if (run->parsed() || bench->parsed()) refuseSeveralRanks();
 #endif
-    if (bench->parsed()) {
-      // a bench times runs against each other: several processes would share the cores
-      for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MV2_COMM_WORLD_SIZE"})
-        if (const char* value = std::getenv(name); value != nullptr && std::atol(value) > 1)
-          throw sweep::InputError(std::string("bench: started as one of ") + value +
-                                  " MPI processes; start it as one");
-    }
     // an empty folder name would write nothing (run) or into the filesystem root (bench)
     if ((run->parsed() || bench->parsed()) && out_dir.empty())
       throw sweep::InputError("--out: must name a folder, got ''");
