@@ -177,6 +177,17 @@ void RankGroup::gather(const std::vector<double>& values, std::vector<double>& a
         "MPI_Allgatherv");
 }
 
+void RankGroup::gatherEqual(const std::vector<double>& values, std::vector<double>& all) const {
+  if (!mpi_) {
+    all.assign(values.begin(), values.end());
+    return;
+  }
+  const int own = static_cast<int>(values.size());
+  all.resize(values.size() * static_cast<std::size_t>(size_));
+  check(MPI_Allgather(values.data(), own, MPI_DOUBLE, all.data(), own, MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Allgather");
+}
+
 void RankGroup::gatherOnRoot(const std::vector<double>& values, std::vector<double>& all) const {
   if (!mpi_) {
     all.assign(values.begin(), values.end());

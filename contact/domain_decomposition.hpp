@@ -55,6 +55,9 @@ class RankGroup {
   std::vector<double> gather(const std::vector<double>& values) const;
   // The same into `all`, whose storage is reused: no allocation once it has grown.
   void gather(const std::vector<double>& values, std::vector<double>& all) const;
+  // The same where every rank passes as many values: one collective instead of two (the
+  // counts need not travel), for the sums a solve takes every sweep.
+  void gatherEqual(const std::vector<double>& values, std::vector<double>& all) const;
   // Every rank's values, concatenated in rank order, on rank 0 only (the others get `all`
   // empty): what one writer needs, without a copy of everything on every rank.
   void gatherOnRoot(const std::vector<double>& values, std::vector<double>& all) const;

@@ -420,7 +420,7 @@ void DistributedStepper::reduceStats() {
                                  s.work_normal,
                                  s.work_tangent,
                                  failure};
-  ranks_.gather(mine, reduce_all_);
+  ranks_.gatherEqual(mine, reduce_all_);
   const std::vector<double>& all = reduce_all_;
   const std::size_t width = mine.size();
   double active = 0.0, iterations = 0.0, cap = 0.0, residual = 0.0, energy = 0.0, bytes = 0.0,

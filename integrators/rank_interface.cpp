@@ -149,7 +149,7 @@ double DistributedStepper::startFromWarmStart(VectorX& v) {
 }
 
 void DistributedStepper::sumOverRanks(std::vector<double>& values) {
-  ranks_.gather(values, reduce_all_);
+  ranks_.gatherEqual(values, reduce_all_);
   const std::size_t width = values.size();
   std::fill(values.begin(), values.end(), 0.0);
   for (std::size_t r = 0; r + width <= reduce_all_.size(); r += width)
