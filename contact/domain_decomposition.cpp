@@ -154,6 +154,20 @@ void RankGroup::exchange(const std::vector<std::vector<double>>& send,
                       packed_in_.begin() + receive_offset_[r + 1]);
 }
 
+int RankGroup::gatherCounts(int own, bool root_only) const {
+  receive_count_.resize(size_);
+  receive_offset_.assign(size_ + 1, 0);
+  if (root_only)
+    check(MPI_Gather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, 0, MPI_COMM_WORLD),
+          "MPI_Gather");
+  else
+    check(MPI_Allgather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, MPI_COMM_WORLD),
+          "MPI_Allgather");
+  if (root_only && rank_ != 0) return 0;
+  for (int r = 0; r < size_; ++r) receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
+  return receive_offset_[size_];
+}
+
 std::vector<double> RankGroup::gather(const std::vector<double>& values) const {
   std::vector<double> all;
   gather(values, all);
@@ -165,13 +179,8 @@ void RankGroup::gather(const std::vector<double>& values, std::vector<double>& a
     all.assign(values.begin(), values.end());
     return;
   }
-  receive_count_.resize(size_);
-  receive_offset_.assign(size_ + 1, 0);
   const int own = static_cast<int>(values.size());
-  check(MPI_Allgather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, MPI_COMM_WORLD),
-        "MPI_Allgather");
-  for (int r = 0; r < size_; ++r) receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
-  all.resize(static_cast<std::size_t>(receive_offset_[size_]));
+  all.resize(static_cast<std::size_t>(gatherCounts(own, false)));
   check(MPI_Allgatherv(values.data(), own, MPI_DOUBLE, all.data(), receive_count_.data(),
                        receive_offset_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
         "MPI_Allgatherv");
@@ -193,14 +202,8 @@ void RankGroup::gatherOnRoot(const std::vector<double>& values, std::vector<doub
     all.assign(values.begin(), values.end());
     return;
   }
-  receive_count_.resize(size_);
-  receive_offset_.assign(size_ + 1, 0);
   const int own = static_cast<int>(values.size());
-  check(MPI_Gather(&own, 1, MPI_INT, receive_count_.data(), 1, MPI_INT, 0, MPI_COMM_WORLD),
-        "MPI_Gather");
-  if (rank_ == 0)
-    for (int r = 0; r < size_; ++r) receive_offset_[r + 1] = receive_offset_[r] + receive_count_[r];
-  all.resize(rank_ == 0 ? static_cast<std::size_t>(receive_offset_[size_]) : 0);
+  all.resize(static_cast<std::size_t>(gatherCounts(own, true)));
   check(MPI_Gatherv(values.data(), own, MPI_DOUBLE, all.data(), receive_count_.data(),
                     receive_offset_.data(), MPI_DOUBLE, 0, MPI_COMM_WORLD),
         "MPI_Gatherv");

@@ -68,6 +68,9 @@ class RankGroup {
 
  private:
   RankGroup(int rank, int size, bool mpi) : rank_(rank), size_(size), mpi_(mpi) {}
+  // every rank's count into receive_count_ and their offsets (on rank 0 only when root_only);
+  // returns the total this rank receives
+  int gatherCounts(int own, bool root_only) const;
   int rank_ = 0, size_ = 1;
   bool mpi_ = false;  // false: one process without MPI, whose collectives are local
   // the collectives' counts and packed buffers, reused from call to call: a solve that

@@ -132,8 +132,7 @@ RunSummary runSceneOnRanks(const RankGroup& ranks, const Scene& scene, const Run
     abortRanks(ranks, e.what(), 1);
   }
 
-  const auto wall_start = std::chrono::steady_clock::now();
-  const double cpu_start = processCpuSeconds();
+  recorder->startClock();
   double bytes = 0.0, shared = 0.0;
   std::vector<double> verdict(2);
   for (long k = 0; k < steps; ++k) {
@@ -180,9 +179,6 @@ RunSummary runSceneOnRanks(const RankGroup& ranks, const Scene& scene, const Run
       break;
     }
   }
-  const double cpu = processCpuSeconds() - cpu_start;
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   if (summary.steps > 0) {
     summary.bytes_per_step = bytes / static_cast<double>(summary.steps);
     summary.shared_bodies_per_step = shared / static_cast<double>(summary.steps);
@@ -190,12 +186,12 @@ RunSummary runSceneOnRanks(const RankGroup& ranks, const Scene& scene, const Run
   try {
     stepper->gatherState(q, v);
     const double energy = root ? energyOf(scene.model, q, v) : 0.0;
-    // every rank's CPU time: the run's cost, as the single process's counts every thread
-    std::vector<double> cpu_all{cpu};
-    std::vector<double> cpu_sum = ranks.gather(cpu_all);
-    double cpu_total = 0.0;
-    for (const double c : cpu_sum) cpu_total += c;
-    recorder->finish(energy, stepper->time(), q, v, cpu_total, wall);
+    // the other ranks' CPU time too: the run's cost, as the single process's counts every
+    // thread
+    const std::vector<double> cpu = ranks.gather({recorder->cpuSeconds()});
+    double others = 0.0;
+    for (int r = 1; r < ranks.size(); ++r) others += cpu[static_cast<std::size_t>(r)];
+    recorder->finish(energy, stepper->time(), q, v, others);
   } catch (const std::exception& e) {
     abortRanks(ranks, e.what(), 1);
   }

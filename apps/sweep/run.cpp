@@ -29,7 +29,8 @@ namespace sweep {
 
 namespace fs = std::filesystem;
 
-double processCpuSeconds() {
+// this process's CPU time (every thread), in seconds
+static double processCpuSeconds() {
   timespec ts{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
@@ -306,11 +307,21 @@ void RunRecorder::progress(long step, double t, bool last) {
   progress_->update(step, t, last);
 }
 
+void RunRecorder::startClock() {
+  wall_start_ = std::chrono::steady_clock::now();
+  cpu_start_ = processCpuSeconds();
+}
+
+double RunRecorder::cpuSeconds() const {
+  return processCpuSeconds() - cpu_start_;
+}
+
 void RunRecorder::finish(double energy_final, double t, const VectorX& q, const VectorX& v,
-                         double cpu_seconds, double wall_seconds) {
+                         double extra_cpu_seconds) {
   RunSummary& summary = summary_;
-  summary.cpu_seconds = cpu_seconds;
-  summary.wall_seconds = wall_seconds;
+  summary.cpu_seconds = cpuSeconds() + extra_cpu_seconds;
+  summary.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start_).count();
   summary.energy_final = energy_final;
   const double steps = static_cast<double>(summary.steps);
   summary.mean_active = summary.steps > 0 ? active_sum_ / steps : 0.0;
@@ -368,8 +379,7 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
   summary.energy_initial = stepper.energy();
   recorder.snapshot(snapshotOf(stepper));
 
-  const auto wall_start = std::chrono::steady_clock::now();
-  const double cpu_start = processCpuSeconds();
+  recorder.startClock();
   for (long k = 0; k < steps; ++k) {
     // a step whose state ran away ends the run as a signal does: stats.csv and the summary
     // whole up to the step before, final_state.csv the state it ran away to (for inspection);
@@ -398,12 +408,9 @@ RunSummary runScene(const Scene& scene, const RunSettings& settings, const RunOp
       break;
     }
   }
-  const double cpu = processCpuSeconds() - cpu_start;
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   summary.actuators = tally.summary(scene.model);
   if (actuators) actuators->finish();
-  recorder.finish(stepper.energy(), stepper.time(), stepper.q(), stepper.v(), cpu, wall);
+  recorder.finish(stepper.energy(), stepper.time(), stepper.q(), stepper.v());
   return summary;
 }
 

@@ -3,6 +3,7 @@
 // of several (runSceneOnRanks). The summary's sums and distributions, stats.csv, the VTK
 // snapshots, the progress line, and at the end final_state.csv, summary.json and the layer's
 // files. Only the process that writes the files constructs it with `files` true.
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,9 +15,6 @@ namespace sweep {
 
 struct StreamedFile;
 class Progress;
-
-// This process's CPU time (every thread), in seconds.
-double processCpuSeconds();
 
 class RunRecorder {
  public:
@@ -34,10 +32,15 @@ class RunRecorder {
   // One step's statistics: the summary's sums, stats.csv's row. True when a snapshot is due.
   bool addStep(const StepStats& s, const std::vector<double>& extra = {});
   void progress(long step, double t, bool last);
-  // After the last step: the summary's means and distributions; stats.csv renamed into place;
-  // final_state.csv, summary.json and the layer's files written.
-  void finish(double energy_final, double t, const VectorX& q, const VectorX& v, double cpu_seconds,
-              double wall_seconds);
+  // Before the first step: the start of the run's CPU and wall time.
+  void startClock();
+  // After the last step: the time since startClock, the summary's means and distributions;
+  // stats.csv renamed into place; final_state.csv, summary.json and the layer's files written.
+  // extra_cpu_seconds: CPU time spent elsewhere in the run (the other ranks').
+  void finish(double energy_final, double t, const VectorX& q, const VectorX& v,
+              double extra_cpu_seconds = 0.0);
+  // This process's CPU time since startClock.
+  double cpuSeconds() const;
 
  private:
   const Scene& scene_;
@@ -56,6 +59,8 @@ class RunRecorder {
   double active_sum_ = 0.0, candidate_sum_ = 0.0, solves_sum_ = 0.0;
   double overlapping_ = 0.0;  // contacts overlapping at step ends, summed over steps
   double next_snapshot_ = 0.0;
+  double cpu_start_ = 0.0;
+  std::chrono::steady_clock::time_point wall_start_;
 };
 
 }  // namespace sweep
