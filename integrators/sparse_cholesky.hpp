@@ -33,7 +33,7 @@ class SparseCholesky {
   int threads() const;
 
  private:
-  struct Factor;  // CHOLMOD's state (sparse_cholesky.cpp)
+  struct Factor;  // CHOLMOD's state (cholmod_factor.hpp)
   std::unique_ptr<Factor> factor_;
 };
 

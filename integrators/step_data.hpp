@@ -5,6 +5,7 @@
 // (the state, the contacts, the problem, the warm starts, the workspaces). The step's stages
 // (namespace stepping) are functions of (StepModel, StepData); TimeStepper::step calls them in
 // the order of the scheme's table (time_stepper.hpp).
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -215,8 +216,13 @@ inline RowOwner rowOwner(const Model& model, int id) {
   return m < limits ? RowOwner{RowOwner::Limit, m} : RowOwner{RowOwner::Constraint, m - limits};
 }
 
-// The stages of a step (time_stepper.hpp's table); time_stepper.cpp and step_solve.cpp.
+// The stages of a step (time_stepper.hpp's table): time_stepper.cpp (reset), step_detection.cpp
+// (1, 2), step_assembly.cpp (4, 3), step_solve.cpp (5) and step_update.cpp (6, the checks).
 namespace stepping {
+// wall seconds since `start`: the stages' times in StepStats
+inline double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 void reset(const StepModel& m, StepData& d, double t, const VectorX& q, const VectorX& v);
 // after the update: throws RunawayError (framework/error.hpp), naming the step and the body, where
 // a body tree's kinetic energy is that of its mass crossing the scene 100 times in one step

@@ -11,13 +11,6 @@
 
 namespace sweep {
 
-namespace {
-using Clock = std::chrono::steady_clock;
-double seconds(Clock::time_point since) {
-  return std::chrono::duration<double>(Clock::now() - since).count();
-}
-}  // namespace
-
 namespace stepping {
 
 namespace {
@@ -175,7 +168,7 @@ double metricKinetic(const StepModel& m, StepData& d, const VectorX& v) {
 }
 
 void solveMoreauJean(const StepModel& m, StepData& d) {
-  const auto start = Clock::now();
+  const auto start = std::chrono::steady_clock::now();
   VectorX& v = d.v_free;  // becomes d.v{k+1}
   d.stats.kinetic_free = metricKinetic(m, d, v);
   const SolverStats s = solveCoulombNlgs(d.problem, m.settings.coulomb, d.P, v, d.solver_ws,
@@ -191,7 +184,7 @@ void solveMoreauJean(const StepModel& m, StepData& d) {
       s.iterations >= m.settings.coulomb.max_iterations || s.status == SolverStatus::MaxIterations;
   d.stats.local_failures = s.local_failures;
   d.stats.kinetic_stage1 = d.stats.kinetic_solved = metricKinetic(m, d, v);
-  d.stats.t_solve = seconds(start);
+  d.stats.t_solve = secondsSince(start);
 }
 
 namespace {
@@ -207,7 +200,7 @@ const StagedImpulse* previousStaged(const StepData& d, int c) {
 }  // namespace
 
 void solveCatchingUp(const StepModel& m, StepData& d) {
-  const auto start = Clock::now();
+  const auto start = std::chrono::steady_clock::now();
   const int n = d.problem.size();
   VectorX& v = d.v_free;
   // warm start each stage from its own previous values
@@ -278,7 +271,7 @@ void solveCatchingUp(const StepModel& m, StepData& d) {
   }
   d.stats.local_failures = 0;
   d.stats.kinetic_solved = metricKinetic(m, d, v);
-  d.stats.t_solve = seconds(start);
+  d.stats.t_solve = secondsSince(start);
 }
 
 }  // namespace stepping
