@@ -31,7 +31,6 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
     refuse("scheme.projection.max_rounds", "position projection does not run on ranks");
   if (cmodel.settings.verify_margin && m_.settings.normal_law != NormalLaw::Vel)
     refuse("detection.verify_margin", "re-detection on the end velocities does not run on ranks");
-  if (cmodel.adhesive()) refuse("contact laws", "adhesion does not run on ranks");
   if (cmodel.path != DetectionPath::Analytic)
     refuse("detection.path", "only the analytic (grid) path runs on ranks");
   if (!model.actuators.empty() || !model.limits.empty() || !model.systems.empty() ||
@@ -334,13 +333,19 @@ const StepStats& DistributedStepper::step() {
           touched_[body->index])
         throw std::logic_error("distributed run: a shared body's row is not a sphere row");
   }
-  if (ranks_.size() == 1)
+  // adhesive rows (step_data.hpp): on several ranks the -h F pushes join the warm start's, which
+  // the ranks sum on shared bodies (startFromWarmStart)
+  shiftForAdhesion(m_, d_);
+  if (ranks_.size() == 1) {
+    applyAdhesionImpulses(d_, d_.v_free);
     solveMoreauJean(m_, d_);
-  else if (settings_.interface == RankInterface::OrderedSweeps)
+  } else if (settings_.interface == RankInterface::OrderedSweeps) {
     solveInRankOrder();
-  else
+  } else {
     solveAcrossRanks();
+  }
   keepImpulses(m_, d_);
+  unshiftAdhesion(d_);
   splitMasses(false);
   update(m_, d_);
   findFailure();

@@ -133,6 +133,8 @@ void DistributedStepper::glue(const VectorX& v_free, VectorX& v, double& mismatc
 double DistributedStepper::startFromWarmStart(VectorX& v) {
   const auto nv = static_cast<std::size_t>(nv_);
   v_free_ = v;
+  // the adhesive rows' -h F is part of this rank's push, summed on shared bodies as the rest
+  stepping::applyAdhesionImpulses(d_, v);
   push_.assign(glued_.size() * nv, 0.0);
   glued_velocity_.assign(glued_.size() * nv, 0.0);
   v_in_.resize(glued_.size() * nv);
@@ -173,6 +175,7 @@ void DistributedStepper::solveAcrossRanks() {
   std::vector<std::int64_t> shared{static_cast<std::int64_t>(glued_.size())};
   ranks_.sum(shared);
   if (shared[0] == 0) {  // no body is touched by two ranks: each rank's solve is the whole
+    stepping::applyAdhesionImpulses(d_, v);
     stepping::solveMoreauJean(m_, d_);
     dstats_.exchanges = 0;
     dstats_.mismatch = 0.0;

@@ -238,6 +238,14 @@ void solve(const StepModel& m, StepData& d);             // 5, with candidate sc
 void solveMoreauJean(const StepModel& m, StepData& d);   // 5, scheme A
 void solveCatchingUp(const StepModel& m, StepData& d);   // 5, scheme B
 void keepImpulses(const StepModel& m, StepData& d);      // by contact: the next solve's warm start
+// Adhesion (ContactLaw; docs/schemes.md, "Adhesion"): on a row with P_N >= -h F the solvers see
+// P~ = P + (h F, 0, 0) >= 0, the plain law with the thresholds mu P~_N and mu_r R* P~_N, and a
+// contact-free velocity that carries the impulse -h F of every adhesive row.
+// shiftForAdhesion: d.adhesion_impulse (h F by row) and the warm starts d.P shifted by it;
+// applyAdhesionImpulses: the rows' -h F added to v; unshiftAdhesion: P = P~ - h F again.
+void shiftForAdhesion(const StepModel& m, StepData& d);
+void applyAdhesionImpulses(const StepData& d, VectorX& v);
+void unshiftAdhesion(StepData& d);
 // screening: contacts left out that break their law at the solve's velocities join
 int admitViolators(const StepModel& m, StepData& d);  // returns how many
 // detection.verify_margin: the margins a detection needs for the end velocities of the solve

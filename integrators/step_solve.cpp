@@ -13,12 +13,7 @@ namespace sweep {
 
 namespace stepping {
 
-namespace {
-// Adhesion (ContactLaw; docs/schemes.md, "Adhesion"): on a row with P_N >= -h F the solvers see
-// P~ = P + (h F, 0, 0) >= 0, the plain law with the thresholds mu P~_N and mu_r R* P~_N, and a
-// contact-free velocity that carries the impulse -h F of every adhesive row. Shifts the warm
-// starts d.P, and v_free where asked (once a step: screening never defers an adhesive row).
-void shiftForAdhesion(const StepModel& m, StepData& d, bool shift_velocity) {
+void shiftForAdhesion(const StepModel& m, StepData& d) {
   d.adhesion_impulse.clear();
   if (!m.cmodel.adhesive()) return;
   const int n = d.problem.size();
@@ -30,19 +25,25 @@ void shiftForAdhesion(const StepModel& m, StepData& d, bool shift_velocity) {
     if (impulse == 0.0) continue;
     d.adhesion_impulse[c] = impulse;
     d.P[c].x() += impulse;
-    if (shift_velocity) d.problem.applyImpulse(c, Vector3(-impulse, 0.0, 0.0), d.v_free);
   }
 }
-// P = P~ - h F: the impulses the update's work and the outputs read
+
+void applyAdhesionImpulses(const StepData& d, VectorX& v) {
+  for (std::size_t c = 0; c < d.adhesion_impulse.size(); ++c)
+    if (d.adhesion_impulse[c] != 0.0)
+      d.problem.applyImpulse(static_cast<int>(c), Vector3(-d.adhesion_impulse[c], 0.0, 0.0), v);
+}
+
 void unshiftAdhesion(StepData& d) {
   for (std::size_t c = 0; c < d.adhesion_impulse.size(); ++c) d.P[c].x() -= d.adhesion_impulse[c];
 }
-}  // namespace
 
 void solve(const StepModel& m, StepData& d) {
   d.stats.solves = 1;
   d.stats.deferred = d.stats.unassembled = 0;
-  shiftForAdhesion(m, d, true);
+  // once a step: screening never defers an adhesive row
+  shiftForAdhesion(m, d);
+  applyAdhesionImpulses(d, d.v_free);
   if (!m.settings.screening) {
     m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
     keepImpulses(m, d);
@@ -70,7 +71,7 @@ void solve(const StepModel& m, StepData& d) {
     d.v_free = d.v_contact_free;
     if (d.jacobian_stale) assembleJacobian(m, d);
     assembleProblem(m, d);
-    shiftForAdhesion(m, d, false);
+    shiftForAdhesion(m, d);
   }
   unshiftAdhesion(d);
   d.contact_dv = d.v_free - d.v_contact_free;
