@@ -25,8 +25,6 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
     refuse("interface", "split masses run on 3D spheres' rows only; 2D scenes take ordered sweeps");
   if (m_.settings.scheme != Scheme::MoreauJean)
     refuse("scheme.name", "only moreau-jean runs on ranks");
-  if (m_.settings.screening)
-    refuse("scheme.screening", "candidate screening does not run on ranks");
   if (m_.settings.projection.max_rounds > 0)
     refuse("scheme.projection.max_rounds", "position projection does not run on ranks");
   if (cmodel.settings.verify_margin && m_.settings.normal_law != NormalLaw::Vel)
@@ -323,29 +321,35 @@ const StepStats& DistributedStepper::step() {
     splitMasses(true);
   }
   assemble(m_, d_);
-  if (ordered) findSharedBodies();
-  // a split mass reaches only the compact sphere rows, which read it from the workspace
-  for (int c = 0; !ordered && c < d_.problem.size(); ++c) {
-    if (d_.problem.sphereForm(c) >= 0) continue;
-    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
-    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
-      if (body->kind == BodyRef::Kind::Dynamic && multiplicity_[body->index] > 1.0 &&
-          touched_[body->index])
-        throw std::logic_error("distributed run: a shared body's row is not a sphere row");
-  }
-  // adhesive rows (step_data.hpp): on several ranks the -h F pushes join the warm start's, which
-  // the ranks sum on shared bodies (startFromWarmStart)
-  shiftForAdhesion(m_, d_);
-  if (ranks_.size() == 1) {
-    applyAdhesionImpulses(d_, d_.v_free);
-    solveMoreauJean(m_, d_);
-  } else if (settings_.interface == RankInterface::OrderedSweeps) {
-    solveInRankOrder();
-  } else {
-    solveAcrossRanks();
-  }
-  keepImpulses(m_, d_);
-  unshiftAdhesion(d_);
+  // one solve of the rows assembled: with candidate screening, each round's admitted
+  // candidates change the rows, and so the bodies two ranks share
+  auto solve_once = [&] {
+    if (ordered) findSharedBodies();
+    // a split mass reaches only the compact sphere rows, which read it from the workspace
+    for (int c = 0; !ordered && c < d_.problem.size(); ++c) {
+      if (d_.problem.sphereForm(c) >= 0) continue;
+      const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
+      for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+        if (body->kind == BodyRef::Kind::Dynamic && multiplicity_[body->index] > 1.0 &&
+            touched_[body->index])
+          throw std::logic_error("distributed run: a shared body's row is not a sphere row");
+    }
+    if (ranks_.size() == 1)
+      solveMoreauJean(m_, d_);
+    else if (ordered)
+      solveInRankOrder();
+    else
+      solveAcrossRanks();
+  };
+  // every rank repeats a screening round when any rank admitted a candidate
+  auto agree = [&](int admitted) {
+    std::vector<std::int64_t> count{admitted};
+    ranks_.sum(count);
+    return static_cast<int>(count[0]);
+  };
+  // adhesive rows (step_data.hpp): on several ranks each row's -h F joins its rank's push,
+  // which the ranks sum on shared bodies (startFromWarmStart)
+  solveScreened(m_, d_, solve_once, agree, ranks_.size() > 1);
   splitMasses(false);
   update(m_, d_);
   findFailure();
@@ -424,14 +428,17 @@ void DistributedStepper::reduceStats() {
                                  potential,
                                  s.work_normal,
                                  s.work_tangent,
-                                 failure};
+                                 failure,
+                                 static_cast<double>(s.deferred),
+                                 static_cast<double>(s.unassembled)};
   ranks_.gatherEqual(mine, reduce_all_);
   const std::vector<double>& all = reduce_all_;
   const std::size_t width = mine.size();
   double active = 0.0, iterations = 0.0, cap = 0.0, residual = 0.0, energy = 0.0, bytes = 0.0,
          shared = 0.0, most = 0.0, failed = 0.0, candidates = 0.0, islands = 0.0, updates = 0.0,
          local_failures = 0.0, penetration_max = 0.0, penetration_sum = 0.0,
-         penetration_count = 0.0, potential_sum = 0.0, work_normal = 0.0, work_tangent = 0.0;
+         penetration_count = 0.0, potential_sum = 0.0, work_normal = 0.0, work_tangent = 0.0,
+         deferred = 0.0, unassembled = 0.0;
   int failing_rank = -1;
   bool runaway = false;
   for (std::size_t r = 0; r * width < all.size(); ++r) {
@@ -459,6 +466,8 @@ void DistributedStepper::reduceStats() {
       failing_rank = static_cast<int>(r);
       runaway = x[19] > 1.0;
     }
+    deferred += x[20];
+    unassembled += x[21];
   }
   // a runaway or a state no longer finite on any rank ends the step on every rank, with the
   // lowest such rank's message
@@ -483,6 +492,8 @@ void DistributedStepper::reduceStats() {
   d_.stats.penetration_count = static_cast<int>(penetration_count);
   d_.stats.work_normal = work_normal;
   d_.stats.work_tangent = work_tangent;
+  d_.stats.deferred = static_cast<int>(deferred);
+  d_.stats.unassembled = static_cast<int>(unassembled);
   if (failed > 0.0) d_.stats.status = SolverStatus::Failed;
   dstats_.bytes_sent = static_cast<std::int64_t>(bytes);
   dstats_.shared_bodies = static_cast<std::int64_t>(shared);

@@ -36,9 +36,10 @@
 // Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
 // dofs are all free disks (ordered sweeps only); walls, plates, blades and other driven or
 // fixed shapes are held by every rank. Scheme A, with or without adhesion (each adhesive row's
-// -h F is part of its rank's push on shared bodies), no candidate screening, no position
-// projection, no actuators, and no re-detection on the end velocities (the VEL law, or
-// detection.verify_margin off); the constructor says which field is not supported.
+// -h F is part of its rank's push on shared bodies) and candidate screening (every rank
+// repeats a round when any admitted a candidate), no position projection, no actuators, and no
+// re-detection on the end velocities (the VEL law, or detection.verify_margin off); the constructor
+// says which field is not supported.
 #include <chrono>
 #include <cstdint>
 #include <optional>

@@ -235,9 +235,16 @@ void assemble(const StepModel& m, StepData& d);          // 3: Jacobian, then th
 void assembleJacobian(const StepModel& m, StepData& d);  // rows of the contacts not unassembled
 void assembleProblem(const StepModel& m, StepData& d);   // the contacts not deferred, warm-started
 void solve(const StepModel& m, StepData& d);             // 5, with candidate screening when set
-void solveMoreauJean(const StepModel& m, StepData& d);   // 5, scheme A
-void solveCatchingUp(const StepModel& m, StepData& d);   // 5, scheme B
-void keepImpulses(const StepModel& m, StepData& d);      // by contact: the next solve's warm start
+// 5 as solve() with the single solve given: solve_once solves the assembled problem once; agree
+// turns this process's count of admitted candidates into the count every process acts on
+// (the sum over ranks; the count itself in one process); adhesion_in_solve: solve_once adds
+// the adhesive rows' -h F to the velocities itself (a distributed solve), else v_free has it.
+// Screening's rounds (every candidate at the last) repeat the solve until agree gives 0.
+void solveScreened(const StepModel& m, StepData& d, const std::function<void()>& solve_once,
+                   const std::function<int(int)>& agree, bool adhesion_in_solve);
+void solveMoreauJean(const StepModel& m, StepData& d);  // 5, scheme A
+void solveCatchingUp(const StepModel& m, StepData& d);  // 5, scheme B
+void keepImpulses(const StepModel& m, StepData& d);     // by contact: the next solve's warm start
 // Adhesion (ContactLaw; docs/schemes.md, "Adhesion"): on a row with P_N >= -h F the solvers see
 // P~ = P + (h F, 0, 0) >= 0, the plain law with the thresholds mu P~_N and mu_r R* P~_N, and a
 // contact-free velocity that carries the impulse -h F of every adhesive row.

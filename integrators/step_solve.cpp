@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 
 #include "framework/dynamics.hpp"
 #include "framework/parallel.hpp"
@@ -39,13 +40,23 @@ void unshiftAdhesion(StepData& d) {
 }
 
 void solve(const StepModel& m, StepData& d) {
+  solveScreened(
+      m, d,
+      [&] {
+        m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
+      },
+      [](int admitted) { return admitted; }, false);
+}
+
+void solveScreened(const StepModel& m, StepData& d, const std::function<void()>& solve_once,
+                   const std::function<int(int)>& agree, bool adhesion_in_solve) {
   d.stats.solves = 1;
   d.stats.deferred = d.stats.unassembled = 0;
   // once a step: screening never defers an adhesive row
   shiftForAdhesion(m, d);
-  applyAdhesionImpulses(d, d.v_free);
+  if (!adhesion_in_solve) applyAdhesionImpulses(d, d.v_free);
   if (!m.settings.screening) {
-    m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
+    solve_once();
     keepImpulses(m, d);
     unshiftAdhesion(d);
     return;
@@ -55,14 +66,13 @@ void solve(const StepModel& m, StepData& d) {
   long updates = 0;
   double t_solve = 0.0;
   for (;;) {
-    m.settings.scheme == Scheme::MoreauJean ? solveMoreauJean(m, d) : solveCatchingUp(m, d);
+    solve_once();
     keepImpulses(m, d);
     iterations1 += d.stats.iterations_stage1;
     iterations2 += d.stats.iterations_stage2;
     updates += d.stats.updates;
     t_solve += d.stats.t_solve;
-    const int admitted = admitViolators(m, d);
-    if (admitted == 0) break;
+    if (agree(admitViolators(m, d)) == 0) break;
     if (++d.stats.solves > m.settings.screening_rounds) {  // the last round: every candidate
       std::fill(d.deferred.begin(), d.deferred.end(), 0);
       std::fill(d.unassembled.begin(), d.unassembled.end(), 0);
