@@ -5,6 +5,7 @@
 //   const double margin = detectionMargin(model, data, cmodel, cdata, v, h, t_m);
 //   detectContacts(model, data, cmodel, cdata, t_m, margin);   // cdata.contacts
 //   assembleContactJacobian(model, data, cmodel, cdata, t);    // cdata.jacobian
+#include <limits>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -105,6 +106,23 @@ double detectionMargin(const Model& model, const Data& data, const ContactModel&
 // `relative`, pairs of two balls from ballClosingSpeed instead (never above the other margin).
 DetectionMargins detectionMargins(const Model& model, const Data& data, const ContactModel& cmodel,
                                   double h, double t);
+
+// The speeds the margins are made of, over the geometries of the bodies that `counted` marks
+// (every body where null; the world's and driven bodies' geometries always count), in a form
+// that parts of a scene combine into the whole's: a distributed step's ranks each measure the
+// bodies they own. Needs forwardKinematics(model, data, q, v).
+struct MarginSpeeds {
+  double fastest_shape = 0.0;  // fastestShapeSpeed
+  Vector3 ball_low = Vector3::Constant(std::numeric_limits<double>::infinity());
+  Vector3 ball_high = -ball_low;           // the box of the balls' centre velocities (none: empty)
+  double ball_fastest = 0.0;               // the largest |centre velocity| of a ball
+  void combine(const MarginSpeeds& part);  // max, min and max: any order, the same bits
+  double ballClosing() const;              // ballClosingSpeed
+};
+MarginSpeeds marginSpeeds(const Model& model, const Data& data, const ContactModel& cmodel,
+                          double t, const std::vector<char>* counted = nullptr);
+// detectionMargins from the speeds
+DetectionMargins detectionMargins(const ContactModel& cmodel, double h, const MarginSpeeds& speeds);
 
 // Fills cdata.contacts with every pair of geometries closer than their margin, sorted by key,
 // with frames and contact laws, each matched to the previous detection's contacts. On the

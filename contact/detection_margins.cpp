@@ -28,13 +28,53 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
   });
 }
 
-double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
-                         double t) {
-  // std::max(fastest, x) leaves a NaN x out, in any order: chunks on threads change nothing
+namespace {
+// a ball's centre velocity in world coordinates (its surface moves with it whatever it spins)
+Vector3 ballCentreVelocity(const Model& model, const Data& data, const ContactModel& cmodel, int i,
+                           double t) {
+  const Geometry& g = cmodel.geometries[i];
+  const BodyRef& body = cmodel.traits[i].body_ref;
+  if (body.kind == BodyRef::Kind::Dynamic) {
+    const Vector6& twist = data.velocity[body.index];  // body coordinates
+    const Vector3 local = twist.tail<3>() + twist.head<3>().cross(Vector3(g.placement.translation));
+    return data.world_pose[body.index].rotation * local;
+  }
+  if (body.kind == BodyRef::Kind::Driven) {
+    const DrivenBody& driven = model.driven_bodies[body.index];
+    return driven.pointVelocity(driven.pose(t).apply(g.placement.translation), t);
+  }
+  return Vector3::Zero();
+}
+}  // namespace
+
+void MarginSpeeds::combine(const MarginSpeeds& part) {
+  // std::max and min leave NaN entries out, in any order
+  fastest_shape = std::max(fastest_shape, part.fastest_shape);
+  ball_low = ball_low.cwiseMin(part.ball_low);
+  ball_high = ball_high.cwiseMax(part.ball_high);
+  ball_fastest = std::max(ball_fastest, part.ball_fastest);
+}
+
+double MarginSpeeds::ballClosing() const {
+  if (!(ball_low.x() <= ball_high.x())) return 0.0;  // no balls
+  const double spread = 0.5 * (ball_high - ball_low).norm();
+  // a non-finite spread compares false and leaves the absolute bound, as fastestShapeSpeed
+  // leaves non-finite speeds out
+  return spread < ball_fastest ? spread : ball_fastest;
+}
+
+MarginSpeeds marginSpeeds(const Model& model, const Data& data, const ContactModel& cmodel,
+                          double t, const std::vector<char>* counted) {
+  // Any common velocity u drops out of two balls' centre velocities' difference: the box of
+  // the centre velocities bounds every gap between two balls (ballClosingSpeed). Chunks on
+  // threads change nothing: every reduction is a max or a min.
   return reduceInChunks(
-      cmodel.size(), data.threads, 0.0,
-      [&](long i, double& fastest) {
+      cmodel.size(), data.threads, MarginSpeeds{},
+      [&](long i, MarginSpeeds& part) {
         const Geometry& g = cmodel.geometries[i];
+        if (counted != nullptr && g.body.kind == BodyRef::Kind::Dynamic &&
+            !(*counted)[g.body.index])
+          return;
         Vector6 twist = Vector6::Zero();
         if (g.body.kind == BodyRef::Kind::Dynamic) twist = data.velocity[g.body.index];
         if (g.body.kind == BodyRef::Kind::Driven)
@@ -42,72 +82,46 @@ double fastestShapeSpeed(const Model& model, const Data& data, const ContactMode
         // |v_origin| + |w| * (distance of any shape point from the body origin)
         const double reach =
             isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
-        fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
+        part.fastest_shape =
+            std::max(part.fastest_shape, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
+        if (!(cmodel.traits[i].ball_radius > 0.0)) return;
+        const Vector3 c = ballCentreVelocity(model, data, cmodel, static_cast<int>(i), t);
+        part.ball_low = part.ball_low.cwiseMin(c);
+        part.ball_high = part.ball_high.cwiseMax(c);
+        part.ball_fastest = std::max(part.ball_fastest, c.norm());
       },
-      [](double& fastest, double part) { fastest = std::max(fastest, part); });
+      [](MarginSpeeds& total, const MarginSpeeds& part) { total.combine(part); });
+}
+
+double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
+                         double t) {
+  return marginSpeeds(model, data, cmodel, t).fastest_shape;
 }
 
 double ballClosingSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
                         double t) {
-  // A ball's surface moves with its centre whatever it spins, so the centres' velocities
-  // bound every gap between two balls; any common velocity u drops out of their differences.
-  auto centreVelocity = [&](int i) -> Vector3 {
-    const Geometry& g = cmodel.geometries[i];
-    const BodyRef& body = cmodel.traits[i].body_ref;
-    if (body.kind == BodyRef::Kind::Dynamic) {
-      const Vector6& twist = data.velocity[body.index];  // body coordinates
-      const Vector3 local =
-          twist.tail<3>() + twist.head<3>().cross(Vector3(g.placement.translation));
-      return data.world_pose[body.index].rotation * local;
-    }
-    if (body.kind == BodyRef::Kind::Driven) {
-      const DrivenBody& driven = model.driven_bodies[body.index];
-      return driven.pointVelocity(driven.pose(t).apply(g.placement.translation), t);
-    }
-    return Vector3::Zero();
-  };
-  // min and max leave NaN entries out, in any order: chunks on threads change nothing
-  struct Bounds {
-    Vector3 low, high;
-    double fastest;
-  };
-  const Vector3 none = Vector3::Constant(std::numeric_limits<double>::infinity());
-  const auto [low, high, fastest] = reduceInChunks(
-      cmodel.size(), data.threads, Bounds{none, -none, 0.0},
-      [&](long i, Bounds& part) {
-        if (!(cmodel.traits[i].ball_radius > 0.0)) return;
-        const Vector3 c = centreVelocity(static_cast<int>(i));
-        part.low = part.low.cwiseMin(c);
-        part.high = part.high.cwiseMax(c);
-        part.fastest = std::max(part.fastest, c.norm());
-      },
-      [](Bounds& total, const Bounds& part) {
-        total.low = total.low.cwiseMin(part.low);
-        total.high = total.high.cwiseMax(part.high);
-        total.fastest = std::max(total.fastest, part.fastest);
-      });
-  if (!(low.x() <= high.x())) return 0.0;  // no balls
-  const double spread = 0.5 * (high - low).norm();
-  // a non-finite spread compares false and leaves the absolute bound, as fastestShapeSpeed
-  // leaves non-finite speeds out
-  return spread < fastest ? spread : fastest;
+  return marginSpeeds(model, data, cmodel, t).ballClosing();
 }
 
 double detectionMargin(const Model& model, const Data& data, const ContactModel& cmodel, double h,
                        double t) {
-  // an adhesive law's range reaches open candidates (IQS, POS): they must be detected
-  return std::max(cmodel.settings.speed_factor * h * fastestShapeSpeed(model, data, cmodel, t) +
-                      cmodel.margin_floor,
-                  cmodel.adhesion_reach);
+  return detectionMargins(model, data, cmodel, h, t).others;
 }
 
 DetectionMargins detectionMargins(const Model& model, const Data& data, const ContactModel& cmodel,
                                   double h, double t) {
-  const double others = detectionMargin(model, data, cmodel, h, t);
+  return detectionMargins(cmodel, h, marginSpeeds(model, data, cmodel, t));
+}
+
+DetectionMargins detectionMargins(const ContactModel& cmodel, double h,
+                                  const MarginSpeeds& speeds) {
+  // an adhesive law's range reaches open candidates (IQS, POS): they must be detected
+  const double others =
+      std::max(cmodel.settings.speed_factor * h * speeds.fastest_shape + cmodel.margin_floor,
+               cmodel.adhesion_reach);
   if (cmodel.settings.margin_rule == MarginRule::Absolute) return DetectionMargins::uniform(others);
   const double balls =
-      std::max(cmodel.settings.speed_factor * h * ballClosingSpeed(model, data, cmodel, t) +
-                   cmodel.margin_floor,
+      std::max(cmodel.settings.speed_factor * h * speeds.ballClosing() + cmodel.margin_floor,
                cmodel.adhesion_reach);
   return {std::min(balls, others), others};
 }

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "framework/error.hpp"
+#include "integrators/time_stepper.hpp"
 
 namespace sweep {
 
@@ -21,14 +22,13 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
       settings_(distributed),
       m_(model, cmodel, settings, {}),
       d_(model, cmodel, m_.settings) {
+  d_.scene_speeds = [this] { return sceneSpeeds(); };
   if (cmodel.dimension == 2 && distributed.interface == RankInterface::SplitMasses)
     refuse("interface", "split masses run on 3D spheres' rows only; 2D scenes take ordered sweeps");
   if (m_.settings.scheme != Scheme::MoreauJean)
     refuse("scheme.name", "only moreau-jean runs on ranks");
   if (m_.settings.projection.max_rounds > 0)
     refuse("scheme.projection.max_rounds", "position projection does not run on ranks");
-  if (cmodel.settings.verify_margin && m_.settings.normal_law != NormalLaw::Vel)
-    refuse("detection.verify_margin", "re-detection on the end velocities does not run on ranks");
   if (cmodel.path != DetectionPath::Analytic)
     refuse("detection.path", "only the analytic (grid) path runs on ranks");
   if (!model.actuators.empty() || !model.limits.empty() || !model.systems.empty() ||
@@ -304,15 +304,49 @@ const StepStats& DistributedStepper::step() {
   refreshOwnership();
   receiveGhosts();
   midpoint(m_, d_);
-  detect(m_, d_);
-  // the ghosts must hold every grain an owned grain may touch: one verdict on every rank
-  std::vector<double> margin{std::max(d_.stats.margin, d_.stats.margin_balls)};
-  ranks_.max(margin);
+  // the margin check after the solve: stages 2 to 5 again on every rank, with the margins the
+  // whole scene's end velocities need (scene_speeds)
+  const bool verify_margin =
+      m_.cmodel.settings.verify_margin && m_.settings.normal_law != NormalLaw::Vel;
+  if (verify_margin) d_.contact_dv_start = d_.contact_dv;
+  detectAndSolve({});
+  d_.stats.redetections = 0;
+  d_.stats.margin_outrun = false;
+  for (DetectionMargins needed = verify_margin ? marginNeeded(m_, d_) : DetectionMargins{};
+       needed.balls > 0.0 || needed.others > 0.0; needed = marginNeeded(m_, d_)) {
+    if (d_.stats.redetections == TimeStepper::kMaxRedetections) {
+      d_.stats.margin_outrun = true;
+      break;
+    }
+    ++d_.stats.redetections;
+    redoStep(m_, d_, needed, [&](const DetectionMargins& margins) { detectAndSolve(margins); });
+  }
+  update(m_, d_);
+  findFailure();
+  if (failure_.empty()) stepping::diagnose(m_, d_);
+  wrapPeriodic(m_.cmodel, d_.q);
+  for (const int b : touched_list_) contact_count_[b] = 0;
+  for (int c = 0; c < d_.problem.size(); ++c) {
+    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
+    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+      if (body->kind == BodyRef::Kind::Dynamic) ++contact_count_[body->index];
+  }
+  ++steps_;
+  reduceStats();
+  return d_.stats;
+}
+
+void DistributedStepper::detectAndSolve(const DetectionMargins& at_least) {
+  using namespace stepping;
+  detect(m_, d_, at_least);
+  // the ghosts must hold every grain an owned grain may touch (the margins are the same on
+  // every rank: scene_speeds)
+  const double margin = std::max(d_.stats.margin, d_.stats.margin_balls);
   const double ghost_width = decomposition_->settings().ghost_width;
-  if (largest_diameter_ + margin[0] > ghost_width)
+  if (largest_diameter_ + margin > ghost_width)
     throw CollectiveError(
         "distributed run, step " + std::to_string(d_.stats.step) + ": the detection margin " +
-        std::to_string(margin[0]) + " m plus the largest diameter exceeds the ghost width " +
+        std::to_string(margin) + " m plus the largest diameter exceeds the ghost width " +
         std::to_string(ghost_width) + " m; raise ghost_width or shorten the step");
   freeVelocity(m_, d_);
   const bool ordered = settings_.interface == RankInterface::OrderedSweeps;
@@ -351,19 +385,25 @@ const StepStats& DistributedStepper::step() {
   // which the ranks sum on shared bodies (startFromWarmStart)
   solveScreened(m_, d_, solve_once, agree, ranks_.size() > 1);
   splitMasses(false);
-  update(m_, d_);
-  findFailure();
-  if (failure_.empty()) stepping::diagnose(m_, d_);
-  wrapPeriodic(m_.cmodel, d_.q);
-  for (const int b : touched_list_) contact_count_[b] = 0;
-  for (int c = 0; c < d_.problem.size(); ++c) {
-    const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
-    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
-      if (body->kind == BodyRef::Kind::Dynamic) ++contact_count_[body->index];
-  }
-  ++steps_;
-  reduceStats();
-  return d_.stats;
+}
+
+MarginSpeeds DistributedStepper::sceneSpeeds() {
+  // each rank measures the grains it owns (the walls, plates and blades every rank holds count
+  // on each, alike); the ranks' parts combine into the single process's speeds
+  counted_.assign(m_.model.bodies.size(), 0);
+  for (int i = 0; i < owned_.size(); ++i) counted_[owned_.id[i]] = 1;
+  MarginSpeeds mine =
+      marginSpeeds(m_.model, d_.model_data, m_.cmodel, d_.t + 0.5 * m_.settings.h, &counted_);
+  std::vector<double> high{mine.fastest_shape, mine.ball_high.x(), mine.ball_high.y(),
+                           mine.ball_high.z(), mine.ball_fastest,  -mine.ball_low.x(),
+                           -mine.ball_low.y(), -mine.ball_low.z()};
+  ranks_.max(high);
+  MarginSpeeds scene;
+  scene.fastest_shape = high[0];
+  scene.ball_high = Vector3(high[1], high[2], high[3]);
+  scene.ball_fastest = high[4];
+  scene.ball_low = -Vector3(high[5], high[6], high[7]);
+  return scene;
 }
 
 void DistributedStepper::findFailure() {

@@ -35,10 +35,13 @@
 //
 // Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
 // dofs are all free disks (ordered sweeps only); walls, plates, blades and other driven or
-// fixed shapes are held by every rank. Scheme A, with or without adhesion (each adhesive row's
-// -h F is part of its rank's push on shared bodies) and candidate screening (every rank
-// repeats a round when any admitted a candidate), no position projection, no actuators, and no
-// re-detection on the end velocities (the VEL law, or detection.verify_margin off); the constructor
+// fixed shapes are held by every rank. Scheme A, with:
+//   - adhesion: each adhesive row's -h F is part of its rank's push on shared bodies;
+//   - candidate screening: every rank repeats a round when any rank admitted a candidate;
+//   - detection margins and the margin check after the solve (detection.verify_margin) from
+//     the whole scene's speeds, the ranks' owned grains combined: every rank detects with the
+//     single process's margins, and all detect again when those fall short.
+// No position projection, actuators, joint limits, systems or constraints; the constructor
 // says which field is not supported.
 #include <chrono>
 #include <cstdint>
@@ -143,6 +146,11 @@ class DistributedStepper {
   void reduceStats();
   // this rank's verdict on the step: a body that ran away, or an owned grain whose state is no
   // longer finite (failure_ empty: neither)
+  // stages 2 to 5 of the step (detection with margins of at least `at_least`, the ghost width
+  // checked, free velocity, assembly, the solve over the ranks)
+  void detectAndSolve(const DetectionMargins& at_least);
+  // the whole scene's margin speeds (StepData::scene_speeds): the ranks' owned grains combined
+  MarginSpeeds sceneSpeeds();
   void findFailure();
   void ownedEnergies(double& kinetic, double& potential) const;
   void writeState(const ParticleSet& set, int i);
@@ -161,6 +169,7 @@ class DistributedStepper {
   bool runaway_ = false;
   ParticleSet owned_, ghosts_;
   std::vector<char> local_;        // per body: owned or ghost on this rank
+  std::vector<char> counted_;      // per body: owned here (sceneSpeeds)
   std::vector<int> owner_;         // per local body: its owner
   std::vector<int> local_bodies_;  // owned, then ghosts, each once
   double largest_diameter_ = 0.0;

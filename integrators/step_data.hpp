@@ -147,6 +147,10 @@ struct StepData {
   // rank's grains along the cut are shared. Empty: every contact.
   std::vector<int> body_rank;
   int rank = 0;
+  // a distributed step's speeds of the whole scene, combined over the ranks, for the detection
+  // margins and the margin check (every rank then detects as the single process); null: this
+  // process's bodies are the scene
+  std::function<MarginSpeeds()> scene_speeds;
   SolverWorkspace solver_ws;
   StepStats stats;
 
@@ -258,7 +262,10 @@ int admitViolators(const StepModel& m, StepData& d);  // returns how many
 // detection.verify_margin: the margins a detection needs for the end velocities of the solve
 // just done (zero where the step's margins cover them); 2 to 5 again from q_m with them
 DetectionMargins marginNeeded(const StepModel& m, StepData& d);
-void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins);
+// stages_2_to_5(margins) runs them on the step's data: by default detect with the margins,
+// freeVelocity, assemble and solve; a distributed step passes its own
+void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins,
+              const std::function<void(const DetectionMargins&)>& stages_2_to_5 = {});
 void update(const StepModel& m, StepData& d);    // 6
 void diagnose(const StepModel& m, StepData& d);  // energies and penetrations at q_{k+1}
 double metricKinetic(const StepModel& m, StepData& d, const VectorX& v);  // 1/2 v^T M(q_m) v

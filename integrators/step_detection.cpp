@@ -3,6 +3,7 @@
 // which redoes stages 2 to 5 with wider ones where they did not.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <utility>
 
 #include "framework/configuration.hpp"
@@ -40,7 +41,9 @@ void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least) {
   const auto start = std::chrono::steady_clock::now();
   const double t_m = d.t + 0.5 * m.settings.h;
   forwardKinematics(m.model, d.model_data, d.q_m, d.v);
-  DetectionMargins margins = detectionMargins(m.model, d.model_data, m.cmodel, m.settings.h, t_m);
+  DetectionMargins margins =
+      d.scene_speeds ? detectionMargins(m.cmodel, m.settings.h, d.scene_speeds())
+                     : detectionMargins(m.model, d.model_data, m.cmodel, m.settings.h, t_m);
   margins.others = std::max(margins.others, at_least.others);
   margins.balls = std::max(margins.balls, at_least.balls);
   d.stats.margin = margins.others;
@@ -82,17 +85,18 @@ DetectionMargins marginNeeded(const StepModel& m, StepData& d) {
     if (!std::isfinite(reach) || reach <= margin) return 0.0;
     return 2.0 * reach + m.cmodel.margin_floor;
   };
+  const MarginSpeeds speeds =
+      d.scene_speeds ? d.scene_speeds() : marginSpeeds(m.model, d.model_data, m.cmodel, t_m);
   DetectionMargins out;
-  out.others = needed(m.settings.h * fastestShapeSpeed(m.model, d.model_data, m.cmodel, t_m),
-                      d.stats.margin);
+  out.others = needed(m.settings.h * speeds.fastest_shape, d.stats.margin);
   out.balls = m.cmodel.settings.margin_rule == MarginRule::Relative
-                  ? needed(m.settings.h * ballClosingSpeed(m.model, d.model_data, m.cmodel, t_m),
-                           d.stats.margin_balls)
+                  ? needed(m.settings.h * speeds.ballClosing(), d.stats.margin_balls)
                   : out.others;  // one margin for every pair
   return out;
 }
 
-void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins) {
+void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins,
+              const std::function<void(const DetectionMargins&)>& stages_2_to_5) {
   // back to the state after midpoint(m, d): the detection swaps its lists and the warm starts
   // with the previous step's, so swap them back first (the solve's results are discarded)
   std::swap(d.contact_data.contacts, d.contact_data.previous);
@@ -105,10 +109,14 @@ void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins) 
   d.limit_staged = d.limit_staged_start;
   // the step's cost counts every solve; its other figures are those of the last
   const StepStats before = d.stats;
-  detect(m, d, margins);
-  freeVelocity(m, d);
-  assemble(m, d);
-  solve(m, d);
+  if (stages_2_to_5) {
+    stages_2_to_5(margins);
+  } else {
+    detect(m, d, margins);
+    freeVelocity(m, d);
+    assemble(m, d);
+    solve(m, d);
+  }
   d.stats.t_detect += before.t_detect;
   d.stats.t_assemble += before.t_assemble;
   d.stats.t_solve += before.t_solve;

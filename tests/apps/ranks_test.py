@@ -6,7 +6,8 @@ within 1e-9 m and 1e-6 m/s (surface speeds of the spins included) of the single 
 ranks sweep the rows in another order); the statistics summed over the ranks (contacts,
 penetration, energy) agree; the same count repeats to the bit; a state saved by the single
 process restarts on 2 ranks; snapshots, the layer and the summary are written by rank 0
-alone. Adhesive grains and screened candidates agree as well. Bad input ends every rank with one message and exit code 2.
+alone. Adhesive grains, screened candidates and the margin check (the powder bed's fast
+setting) agree as well. Bad input ends every rank with one message and exit code 2.
 Usage: ranks_test.py SWEEP SOURCE_DIR MPIEXEC"""
 import csv
 import json
@@ -99,9 +100,9 @@ class RanksTest(unittest.TestCase):
                 self.assertEqual(len(stats), len(single_stats))
                 last, single_last = stats[-1], single_stats[-1]
                 # the contacts each rank owns, summed: the single process's, one either way for
-                # a gap within round-off of 0. (Not the candidates: each rank's detection margin
-                # follows the speeds of the grains it holds, below the single process's.)
-                for key in ("active", "penetration_count"):
+                # a gap within round-off of 0 (the ranks detect with the single process's
+                # margins)
+                for key in ("candidates", "active", "penetration_count"):
                     self.assertLessEqual(abs(int(last[key]) - int(single_last[key])), 1, key)
                 for key in ("kinetic", "potential", "penetration_sum"):
                     scale = max(abs(float(single_last[key])), 1e-30)
@@ -189,8 +190,7 @@ class RanksTest(unittest.TestCase):
         screening rounds (one verdict for every rank) and end within 1e-9 m and 1e-6 m/s of it.
         (IQS's heap is sensitive: the single process at 1e-12 against 1e-10 ends microns apart
         after 200 steps; 80 keep the comparison to the solver's tolerance.)"""
-        screened = ["--set", "scheme.normal_law=iqs", "--set", "detection.verify_margin=false",
-                    "--set", "scheme.screening=true", "--set", "scheme.screening_gap=1e-8",
+        screened = ["--set", "scheme.normal_law=iqs", "--set", "scheme.screening=true", "--set", "scheme.screening_gap=1e-8",
                     "--set", "time.end=0.0008"]
         single = os.path.join(self.dir, "screened_single")
         result = run(0, [SCENE, "--out", single] + SETTINGS + screened)
@@ -207,6 +207,32 @@ class RanksTest(unittest.TestCase):
                 stats = read_stats(os.path.join(out, "stats.csv"))
                 self.assertEqual(sum(int(row["solves"]) for row in stats), solves)
                 self.assertGreater(sum(int(row["deferred"]) for row in stats), 0)
+
+    def test_the_fast_setting_on_ranks(self):
+        """examples/powder_bed/fast.yaml (IQS at h = 1e-4, screening, the relative margin rule
+        and the margin check after the solve) over the lattice's first 7 steps, solved to 1e-10:
+        the ranks combine their grains' speeds into the single process's margins, so every rank
+        count finds the same candidates, detects again on the same steps, repeats as many
+        screening rounds, and ends within 1e-9 m and 1e-6 m/s."""
+        fast = ["--set-file", os.path.join(SOURCE, "examples/powder_bed/fast.yaml"),
+                "--set", "scheme.coulomb.tolerance=1e-10",
+                "--set", "scheme.coulomb.residual_check_interval=1",
+                "--set", "scheme.coulomb.max_iterations=20000", "--set", "time.end=0.0007"]
+        single = os.path.join(self.dir, "fast_single")
+        result = run(0, [SCENE, "--out", single] + SETTINGS + fast)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        reference = read_state(os.path.join(single, "final_state.csv"))
+        single_stats = read_stats(os.path.join(single, "stats.csv"))
+        self.assertGreater(sum(int(row["redetections"]) for row in single_stats), 0)
+        for ranks in (2, 3):
+            with self.subTest(ranks=ranks):
+                out, _ = self.run_ranks(ranks, f"fast{ranks}", fast)
+                self.assertClose(read_state(os.path.join(out, "final_state.csv")), reference,
+                                 1e-9, 1e-6)
+                stats = read_stats(os.path.join(out, "stats.csv"))
+                for key in ("candidates", "redetections", "solves"):
+                    self.assertEqual([row[key] for row in stats],
+                                     [row[key] for row in single_stats], key)
 
     def test_the_2d_funnel_on_ranks(self):
         """500 disks fall into the funnel (200 steps, before the shutter opens), solved to

@@ -196,8 +196,13 @@ TEST(DistributedStepper, RefusesWhatDoesNotRunOnRanks) {
     EXPECT_NE(std::string(e.what()).find("scheme.name"), std::string::npos) << e.what();
   }
   settings = settingsFor();
-  settings.screening = true;
-  EXPECT_THROW(DistributedStepper(ranks, scene.model, scene.cmodel, settings), InputError);
+  settings.projection.max_rounds = 1;
+  try {
+    DistributedStepper stepper(ranks, scene.model, scene.cmodel, settings);
+    ADD_FAILURE() << "position projection was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("projection"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
