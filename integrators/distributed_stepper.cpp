@@ -377,9 +377,9 @@ void DistributedStepper::detectAndSolve(const DetectionMargins& at_least) {
   };
   // every rank repeats a screening round when any rank admitted a candidate
   auto agree = [&](int admitted) {
-    std::vector<std::int64_t> count{admitted};
-    ranks_.sum(count);
-    return static_cast<int>(count[0]);
+    admitted_.assign(1, admitted);
+    ranks_.sum(admitted_);
+    return static_cast<int>(admitted_[0]);
   };
   // adhesive rows (step_data.hpp): on several ranks each row's -h F joins its rank's push,
   // which the ranks sum on shared bodies (startFromWarmStart)
@@ -394,9 +394,9 @@ MarginSpeeds DistributedStepper::sceneSpeeds() {
   for (int i = 0; i < owned_.size(); ++i) counted_[owned_.id[i]] = 1;
   MarginSpeeds mine =
       marginSpeeds(m_.model, d_.model_data, m_.cmodel, d_.t + 0.5 * m_.settings.h, &counted_);
-  std::vector<double> high{mine.fastest_shape, mine.ball_high.x(), mine.ball_high.y(),
-                           mine.ball_high.z(), mine.ball_fastest,  -mine.ball_low.x(),
-                           -mine.ball_low.y(), -mine.ball_low.z()};
+  std::vector<double>& high = speed_bounds_;  // the lows negated: one all-reduce of maxima
+  high.assign({mine.fastest_shape, mine.ball_high.x(), mine.ball_high.y(), mine.ball_high.z(),
+               mine.ball_fastest, -mine.ball_low.x(), -mine.ball_low.y(), -mine.ball_low.z()});
   ranks_.max(high);
   MarginSpeeds scene;
   scene.fastest_shape = high[0];

@@ -168,10 +168,12 @@ class DistributedStepper {
   std::string failure_;                               // this step's, on this rank
   bool runaway_ = false;
   ParticleSet owned_, ghosts_;
-  std::vector<char> local_;        // per body: owned or ghost on this rank
-  std::vector<char> counted_;      // per body: owned here (sceneSpeeds)
-  std::vector<int> owner_;         // per local body: its owner
-  std::vector<int> local_bodies_;  // owned, then ghosts, each once
+  std::vector<char> local_;             // per body: owned or ghost on this rank
+  std::vector<char> counted_;           // per body: owned here (sceneSpeeds)
+  std::vector<double> speed_bounds_;    // sceneSpeeds' all-reduce
+  std::vector<std::int64_t> admitted_;  // a screening round's admitted candidates, summed
+  std::vector<int> owner_;              // per local body: its owner
+  std::vector<int> local_bodies_;       // owned, then ghosts, each once
   double largest_diameter_ = 0.0;
   // shared bodies: touch_out_[r] the bodies owned by r that this rank's contacts touch (in the
   // order sent), touch_in_[r] this rank's bodies that r's contacts touch

@@ -67,6 +67,12 @@ class RanksTest(unittest.TestCase):
     def tearDownClass(cls):
         shutil.rmtree(cls.dir, ignore_errors=True)
 
+    def run_single(self, name, extra=()):
+        out = os.path.join(self.dir, name)
+        result = run(0, [SCENE, "--out", out] + SETTINGS + list(extra))
+        self.assertEqual(result.returncode, 0, result.stderr)
+        return out
+
     def run_ranks(self, ranks, name, extra=()):
         out = os.path.join(self.dir, name)
         result = run(ranks, [SCENE, "--out", out] + SETTINGS + list(extra))
@@ -152,9 +158,7 @@ class RanksTest(unittest.TestCase):
             self.assertEqual(x.read(), y.read())
 
     def test_a_saved_state_restarts_on_ranks(self):
-        half = os.path.join(self.dir, "half")
-        result = run(0, [SCENE, "--out", half] + SETTINGS + ["--t-end", "0.001"])
-        self.assertEqual(result.returncode, 0, result.stderr)
+        half = self.run_single("half", ["--t-end", "0.001"])
         out, _ = self.run_ranks(2, "restarted", ["--initial-state",
                                                  os.path.join(half, "final_state.csv")])
         self.assertClose(read_state(os.path.join(out, "final_state.csv")),
@@ -168,13 +172,9 @@ class RanksTest(unittest.TestCase):
         single process, which adhesion moves by microns. (Later steps of the adhesive heap
         stall short of 1e-10 at the 5000-sweep cap, and the row orders then part.)"""
         adhesive = ["--set", "generators[0].surface_energy=1e-4", "--set", "time.end=0.0011"]
-        single = os.path.join(self.dir, "adhesive_single")
-        result = run(0, [SCENE, "--out", single] + SETTINGS + adhesive)
-        self.assertEqual(result.returncode, 0, result.stderr)
+        single = self.run_single("adhesive_single", adhesive)
         reference = read_state(os.path.join(single, "final_state.csv"))
-        cohesionless = os.path.join(self.dir, "cohesionless_110")
-        result = run(0, [SCENE, "--out", cohesionless] + SETTINGS + adhesive[-2:])
-        self.assertEqual(result.returncode, 0, result.stderr)
+        cohesionless = self.run_single("cohesionless_110", adhesive[-2:])
         with self.assertRaises(AssertionError):  # adhesion changes the run
             self.assertClose(reference, read_state(os.path.join(cohesionless, "final_state.csv")),
                              1e-7, 1e-4)
@@ -192,9 +192,7 @@ class RanksTest(unittest.TestCase):
         after 200 steps; 80 keep the comparison to the solver's tolerance.)"""
         screened = ["--set", "scheme.normal_law=iqs", "--set", "scheme.screening=true", "--set", "scheme.screening_gap=1e-8",
                     "--set", "time.end=0.0008"]
-        single = os.path.join(self.dir, "screened_single")
-        result = run(0, [SCENE, "--out", single] + SETTINGS + screened)
-        self.assertEqual(result.returncode, 0, result.stderr)
+        single = self.run_single("screened_single", screened)
         reference = read_state(os.path.join(single, "final_state.csv"))
         single_stats = read_stats(os.path.join(single, "stats.csv"))
         solves = sum(int(row["solves"]) for row in single_stats)
@@ -218,9 +216,7 @@ class RanksTest(unittest.TestCase):
                 "--set", "scheme.coulomb.tolerance=1e-10",
                 "--set", "scheme.coulomb.residual_check_interval=1",
                 "--set", "scheme.coulomb.max_iterations=20000", "--set", "time.end=0.0007"]
-        single = os.path.join(self.dir, "fast_single")
-        result = run(0, [SCENE, "--out", single] + SETTINGS + fast)
-        self.assertEqual(result.returncode, 0, result.stderr)
+        single = self.run_single("fast_single", fast)
         reference = read_state(os.path.join(single, "final_state.csv"))
         single_stats = read_stats(os.path.join(single, "stats.csv"))
         self.assertGreater(sum(int(row["redetections"]) for row in single_stats), 0)
