@@ -46,10 +46,18 @@ void describeScene(const sweep::SceneFile& file, const sweep::Scene& scene, std:
     out << "\n";
   }
   const sweep::SchemeSettings& s = file.run.scheme;
-  // auto as what it resolves to here (convex_stages.cpp: Newton on 2D problems)
+  // auto as what it resolves to here (stage_solvers.cpp, convex_stages.cpp): Newton on 2D
+  // problems; in 3D NLGS with NNCG where every row joins free bodies (packed rows), else MPRGP /
+  // APGD
+  bool free_bodies_only =
+      s.packed_rows && model.limits.empty() && model.systems.empty() && model.constraints.empty();
+  for (const sweep::Body& body : model.bodies)
+    free_bodies_only =
+        free_bodies_only && body.parent < 0 && body.joint.type == sweep::JointType::Floating;
   auto stageSolverShown = [&](sweep::StageSolver solver) {
     if (solver != sweep::StageSolver::Auto) return std::string(sweep::enumName(solver));
-    return std::string(file.spec.dimension == 2 ? "newton" : "mprgp") + " (auto)";
+    if (file.spec.dimension == 2) return std::string("newton (auto)");
+    return std::string(free_bodies_only ? "nlgs with nncg (auto)" : "mprgp (auto)");
   };
   out << "  scheme: " << sweep::enumName(s.scheme) << ", h = " << s.h
       << " s, t_end = " << file.run.t_end << " s, normal law " << sweep::enumName(s.normal_law);
