@@ -84,6 +84,10 @@ void restrictParticles(const ContactModel& cmodel, const std::vector<char>& body
 double fastestShapeSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
                          double t);
 
+// Largest speed of a point of a driven body's shapes at t (0 without driven bodies): a grain
+// such a body strikes takes up its speed within the step.
+double fastestDrivenShapeSpeed(const Model& model, const ContactModel& cmodel, double t);
+
 // The speed that bounds how fast two balls (spheres, disks) close on each other, at (q, v)
 // and t: the largest |c_i - u| over the balls' centre velocities c_i, with u the middle of
 // their bounding box, or the largest |c_i| if that is smaller. Two balls close by at most

@@ -98,6 +98,18 @@ double fastestShapeSpeed(const Model& model, const Data& data, const ContactMode
   return marginSpeeds(model, data, cmodel, t).fastest_shape;
 }
 
+double fastestDrivenShapeSpeed(const Model& model, const ContactModel& cmodel, double t) {
+  double fastest = 0.0;
+  for (const Geometry& g : cmodel.geometries) {
+    if (g.body.kind != BodyRef::Kind::Driven) continue;
+    const Vector6 twist = model.driven_bodies[g.body.index].twist(t);
+    const double reach =
+        isUnbounded(g.shape) ? 0.0 : g.placement.translation.norm() + boundingRadius(g.shape);
+    fastest = std::max(fastest, twist.tail<3>().norm() + twist.head<3>().norm() * reach);
+  }
+  return fastest;
+}
+
 double ballClosingSpeed(const Model& model, const Data& data, const ContactModel& cmodel,
                         double t) {
   return marginSpeeds(model, data, cmodel, t).ballClosing();

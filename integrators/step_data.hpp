@@ -47,7 +47,8 @@ struct SchemeSettings {
   // candidate problem: a contact with zero impulse whose law holds is a solution of its row.
   // Pays where the laws with gap terms (IQS, POS) carry many open candidates.
   // screening_gap: candidates closer than this always join the first solve (< 0: 200 margin
-  // floors, a fifth of the smallest moving shape's size with the default floor).
+  // floors, a fifth of the smallest moving shape's size with the default floor, or, if more,
+  // speed_factor * h/2 * the fastest driven shape point's speed).
   bool screening = false;
   int screening_rounds = 8;
   double screening_gap = -1.0;

@@ -177,6 +177,47 @@ TEST(Detection, RelativeBallMarginIgnoresSpinAndCommonMotion) {
   EXPECT_EQ(margins.others, detectionMargin(scene.model, data, cmodel, h, 0.0));
 }
 
+// A driven body's fastest shape point: |v_origin| + |w| * reach, which bounds the speed of each
+// of its shape's corners and is what fastestShapeSpeed counts for it when the free bodies rest.
+TEST(Detection, FastestDrivenShapeSpeedBoundsTheDrivenShapesPoints) {
+  ModelBuilder mb("driven");
+  addFreeBody(mb, "ball", solidSphereInertia(1.0, 0.3));
+  Pose start;
+  start.translation = Vector3(0.0, 0.0, -0.5);
+  const Vector3 linear(0.3, -0.2, 0.5), angular(0.4, 0.1, 1.0);
+  mb.addDrivenBody(DrivenBody::constantTwist("pusher", start, linear, angular));
+  const Model model = mb.build();
+  ContactModelBuilder builder(model);
+  builder.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(0.3));
+  const Vector3 half(1.0, 1.0, 0.2);
+  Pose offset;
+  offset.translation = Vector3(0.5, 0.0, 0.0);
+  builder.addGeometry("pusher", BodyRef::driven(0), offset, Shape::box(2.0 * half));
+  const ContactModel cmodel = builder.build();
+  const double t = 0.3;
+  const double fastest = fastestDrivenShapeSpeed(model, cmodel, t);
+  const DrivenBody& pusher = model.driven_bodies[0];
+  double corner_fastest = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vector3 local(corner & 1 ? half.x() : -half.x(), corner & 2 ? half.y() : -half.y(),
+                        corner & 4 ? half.z() : -half.z());
+    const Vector3 world = pusher.pose(t).apply(offset.apply(local));
+    corner_fastest = std::max(corner_fastest, pusher.pointVelocity(world, t).norm());
+  }
+  EXPECT_GE(fastest, corner_fastest);
+  EXPECT_GT(fastest, linear.norm());
+  Data data(model);
+  forwardKinematics(model, data, model.neutralConfiguration(), VectorX::Zero(model.nv));
+  EXPECT_DOUBLE_EQ(fastest, fastestShapeSpeed(model, data, cmodel, t));
+  // without driven bodies, nothing
+  ModelBuilder alone_builder("alone");
+  addFreeBody(alone_builder, "ball", solidSphereInertia(1.0, 0.3));
+  const Model alone = alone_builder.build();
+  ContactModelBuilder alone_contacts(alone);
+  alone_contacts.addGeometry("ball", BodyRef::dynamic(0), Pose::identity(), Shape::sphere(0.3));
+  EXPECT_EQ(fastestDrivenShapeSpeed(alone, alone_contacts.build(), t), 0.0);
+}
+
 // In 3D the centres' velocities are compared in the world frame: two spheres turned
 // differently, with one world velocity and different spins, close on nothing.
 TEST(Detection, RelativeBallMarginComparesWorldVelocities) {
