@@ -91,8 +91,8 @@ void assemble(const StepModel& m, StepData& d) {
   // that, a fifth of the smallest radius: one solve per step on the 35 000-sphere bed instead
   // of two (docs/powder_bed.md). A grain a driven body strikes takes up the body's speed within
   // the step and closes on the neighbours within that speed times h/2, so `near` is at least
-  // that reach: a blade at 0.1 m/s strikes a few grains every step, and without it a third of
-  // the spreading steps solve twice.
+  // that reach: a blade at 0.1 m/s strikes a few grains every step, and without it the
+  // staggered scheme's powder job solved 1.34 times a step instead of 1.06.
   const int contacts = static_cast<int>(d.contact_data.contacts.size());
   const double tau = 0.5 * m.settings.h, slack = m.cmodel.margin_floor;
   const double factor = m.cmodel.settings.speed_factor;
