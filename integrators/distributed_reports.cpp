@@ -74,7 +74,9 @@ void DistributedStepper::reduceStats() {
                                  s.work_tangent,
                                  failure,
                                  static_cast<double>(s.deferred),
-                                 static_cast<double>(s.unassembled)};
+                                 static_cast<double>(s.unassembled),
+                                 static_cast<double>(carried_),
+                                 static_cast<double>(handed_over_)};
   ranks_.gatherEqual(mine, reduce_all_);
   const std::vector<double>& all = reduce_all_;
   const std::size_t width = mine.size();
@@ -82,7 +84,7 @@ void DistributedStepper::reduceStats() {
          shared = 0.0, most = 0.0, failed = 0.0, candidates = 0.0, islands = 0.0, updates = 0.0,
          local_failures = 0.0, penetration_max = 0.0, penetration_sum = 0.0,
          penetration_count = 0.0, potential_sum = 0.0, work_normal = 0.0, work_tangent = 0.0,
-         deferred = 0.0, unassembled = 0.0;
+         deferred = 0.0, unassembled = 0.0, carried = 0.0, handed_over = 0.0;
   int failing_rank = -1;
   bool runaway = false;
   for (std::size_t r = 0; r * width < all.size(); ++r) {
@@ -112,6 +114,8 @@ void DistributedStepper::reduceStats() {
     }
     deferred += x[20];
     unassembled += x[21];
+    carried += x[22];
+    handed_over += x[23];
   }
   // a runaway or a state no longer finite on any rank ends the step on every rank, with the
   // lowest such rank's message
@@ -141,6 +145,8 @@ void DistributedStepper::reduceStats() {
   if (failed > 0.0) d_.stats.status = SolverStatus::Failed;
   dstats_.bytes_sent = static_cast<std::int64_t>(bytes);
   dstats_.shared_bodies = static_cast<std::int64_t>(shared);
+  dstats_.carried = static_cast<std::int64_t>(carried);
+  dstats_.handed_over = static_cast<std::int64_t>(handed_over);
   dstats_.imbalance =
       most * ranks_.size() / std::max(1.0, static_cast<double>(particle_body_.size()));
 }

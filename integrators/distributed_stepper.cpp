@@ -38,6 +38,8 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
     refuse("sweeps_per_exchange", std::to_string(settings_.sweeps_per_exchange) + " is below 1");
   if (settings_.rebalance_interval < 0)
     refuse("rebalance_interval", std::to_string(settings_.rebalance_interval) + " is negative");
+  if (!(settings_.rebalance_above >= 0.0) || !std::isfinite(settings_.rebalance_above))
+    refuse("rebalance_above", std::to_string(settings_.rebalance_above) + " is not a ratio");
   if (!(settings_.ghost_width >= 0.0))
     refuse("ghost_width", std::to_string(settings_.ghost_width) + " is not a width");
   findFreeParticles(model, d_.model_data, cmodel, d_.problem_ws);
@@ -152,8 +154,10 @@ void DistributedStepper::refreshOwnership() {
     for (int k = 0; k < nq_; ++k) payload[k] = d_.q[body.q_index + k];
     for (int k = 0; k < nv_; ++k) payload[nq_ + k] = d_.v[body.v_index + k];
   }
-  const bool rebalance = balance_now_ || (settings_.rebalance_interval > 0 &&
-                                          steps_ % settings_.rebalance_interval == 0);
+  bool rebalance = balance_now_;
+  if (!rebalance && settings_.rebalance_interval > 0 && steps_ % settings_.rebalance_interval == 0)
+    rebalance = settings_.rebalance_above <= 0.0 ||
+                decomposition_->imbalance(owned_) > settings_.rebalance_above;
   balance_now_ = false;
   const ExchangeStats moved =
       rebalance ? decomposition_->balance(owned_) : decomposition_->migrate(owned_);
@@ -166,6 +170,69 @@ void DistributedStepper::refreshOwnership() {
   // what this rank does not own is at rest until a ghost exchange brings it
   for (const int b : particle_body_)
     if (d_.body_rank[b] != ranks_.rank()) d_.v.segment(m_.model.bodies[b].v_index, nv_).setZero();
+}
+
+void DistributedStepper::handOverContacts() {
+  // key (3), tangent1 (3), impulse (3), rolling impulse (2, with rolling resistance)
+  std::vector<Contact>& contacts = d_.contact_data.contacts;
+  const bool rolling = m_.cmodel.rolling && d_.rolling.size() == contacts.size();
+  const std::size_t width = rolling ? 11 : 9;
+  const int size = ranks_.size(), rank = ranks_.rank();
+  for (int r = 0; r < size; ++r) send_[r].clear();
+  handed_over_ = 0;
+  std::int64_t doubles = 0;
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const int to = stepping::contactOwner(d_.body_rank, contacts[c]);
+    if (to < 0 || to == rank) continue;
+    const Contact& k = contacts[c];
+    const Vector3 P = c < d_.impulse.size() ? d_.impulse[c] : Vector3::Zero();
+    std::vector<double>& out = send_[to];
+    out.insert(out.end(),
+               {static_cast<double>(k.key.geometry_a), static_cast<double>(k.key.geometry_b),
+                static_cast<double>(k.key.feature), k.tangent1.x(), k.tangent1.y(), k.tangent1.z(),
+                P.x(), P.y(), P.z()});
+    if (rolling) out.insert(out.end(), {d_.rolling[c].x(), d_.rolling[c].y()});
+    ++handed_over_;
+    doubles += static_cast<std::int64_t>(width);
+  }
+  bytes_ += 8 * doubles;
+  ranks_.exchange(send_, receive_);
+  std::size_t arriving = 0;
+  for (int r = 0; r < size; ++r) arriving += receive_[r].size() / width;
+  if (arriving == 0) return;
+  // the contacts handed away stay here: this rank no longer detects them as its own
+  d_.impulse.resize(contacts.size(), Vector3::Zero());
+  if (rolling) d_.rolling.resize(contacts.size(), Vector2::Zero());
+  for (int r = 0; r < size; ++r)
+    for (std::size_t at = 0; at + width <= receive_[r].size(); at += width) {
+      const double* x = receive_[r].data() + at;
+      Contact k;
+      k.key = ContactKey{static_cast<int>(x[0]), static_cast<int>(x[1]), static_cast<int>(x[2])};
+      k.tangent1 = Vector3(x[3], x[4], x[5]);
+      // what detection reads of a previous contact is its key and frame; the rest is unread
+      k.normal = k.tangent2 = k.point_a = k.point_b = Vector3::Zero();
+      contacts.push_back(k);
+      d_.impulse.emplace_back(x[6], x[7], x[8]);
+      if (rolling) d_.rolling.emplace_back(x[9], x[10]);
+    }
+  const int n = static_cast<int>(contacts.size());
+  merge_order_.resize(n);
+  for (int c = 0; c < n; ++c) merge_order_[c] = c;
+  std::sort(merge_order_.begin(), merge_order_.end(),
+            [&](int a, int b) { return contacts[a].key < contacts[b].key; });
+  merged_contacts_.resize(n);
+  merged_impulse_.resize(n);
+  for (int c = 0; c < n; ++c) {
+    merged_contacts_[c] = contacts[merge_order_[c]];
+    merged_impulse_[c] = d_.impulse[merge_order_[c]];
+  }
+  contacts.swap(merged_contacts_);
+  d_.impulse.swap(merged_impulse_);
+  if (rolling) {
+    merged_rolling_.resize(n);
+    for (int c = 0; c < n; ++c) merged_rolling_[c] = d_.rolling[merge_order_[c]];
+    d_.rolling.swap(merged_rolling_);
+  }
 }
 
 void DistributedStepper::receiveGhosts() {
@@ -303,6 +370,7 @@ const StepStats& DistributedStepper::step() {
   bytes_ = 0;
   refreshOwnership();
   receiveGhosts();
+  handOverContacts();
   midpoint(m_, d_);
   // the margin check after the solve: stages 2 to 5 again on every rank, with the margins the
   // whole scene's end velocities need (scene_speeds)
@@ -331,6 +399,8 @@ const StepStats& DistributedStepper::step() {
     for (const BodyRef* body : {&contact.body_a, &contact.body_b})
       if (body->kind == BodyRef::Kind::Dynamic) ++contact_count_[body->index];
   }
+  carried_ = 0;
+  for (const Contact& contact : d_.contact_data.contacts) carried_ += contact.previous >= 0 ? 1 : 0;
   ++steps_;
   reduceStats();
   return d_.stats;

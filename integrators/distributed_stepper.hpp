@@ -28,9 +28,11 @@
 // warm start (the last step's impulses) and add every rank's part of it on the shared bodies
 // before the first sweep. One rank runs the plain step.
 //
-// Each step: the owners move with their particles (migration; rebalanced by work every
-// rebalance_interval steps), the copies within ghost_width of a rank's region arrive with q
-// and v (ghost exchange), and detection bins the owned and ghost grains only. Every rank holds
+// Each step: the owners move with their particles (migration; the domain cut again by work
+// when the balance has gone, DistributedSettings), the last step's contacts whose owner changed
+// go to the new owner with their impulses (warm starts), the copies within ghost_width of a
+// rank's region arrive with q and v (ghost exchange), and detection bins the owned and ghost
+// grains only. Every rank holds
 // the whole Model and state vectors; what it does not own or see is at rest and stale.
 //
 // Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
@@ -79,7 +81,12 @@ struct DistributedSettings {
   // split masses: NLGS sweeps between two glues of the shared bodies (5 is the fastest of 2,
   // 5 and 10 on the powder heap)
   int sweeps_per_exchange = 5;
-  int rebalance_interval = 0;  // steps between two rebalances by work; 0: at reset only
+  // steps between two checks of the balance; 0: balanced at reset only. At a check the ranks
+  // cut the domain again by work when the most work on one rank exceeds rebalance_above times
+  // the mean (0: at every check). Grains settling into a heap, or a heap a blade carries,
+  // leave the cuts of the start behind: one of two ranks ends with nearly every grain.
+  int rebalance_interval = 10;
+  double rebalance_above = 1.2;
   // the largest centre distance of two grains that may touch within a step (m); 0: twice the
   // largest diameter. A step whose detection margin does not fit in it throws on every rank.
   double ghost_width = 0.0;
@@ -94,6 +101,9 @@ struct DistributedStats {
   // times the largest radius)
   double mismatch = 0.0;
   double imbalance = 1.0;  // the most owned grains on one rank over the mean
+  // contacts of the step found in the last step's (warm start and tangent frame carried), and
+  // the last step's contacts sent to the rank that owns them now (migration, rebalances)
+  std::int64_t carried = 0, handed_over = 0;
 };
 
 class DistributedStepper {
@@ -154,6 +164,9 @@ class DistributedStepper {
   void findFailure();
   void ownedEnergies(double& kinetic, double& potential) const;
   void writeState(const ParticleSet& set, int i);
+  // after the ghosts arrive: the last step's contacts whose owner changed go to their new owner
+  // with their impulses and frames, into its previous list (sorted by key as detection needs)
+  void handOverContacts();
   // a grain's centre at q: its body's origin (the grain is centred on it)
   Vector3 centre(const Body& body, const VectorX& q) const;
 
@@ -200,6 +213,12 @@ class DistributedStepper {
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)
   VectorX v_free_;                           // the contact-free velocity of this step
   std::vector<std::vector<double>> send_, receive_;
+  // handOverContacts' merge: the order by key, and the lists in that order
+  std::vector<int> merge_order_;
+  std::vector<Contact> merged_contacts_;
+  std::vector<Vector3> merged_impulse_;
+  std::vector<Vector2> merged_rolling_;
+  std::int64_t handed_over_ = 0, carried_ = 0;    // this rank's, this step
   std::vector<double> reduce_mine_, reduce_all_;  // the solve's sums, gathered every sweep
   DistributedStats dstats_;
   std::int64_t bytes_ = 0;  // sent by this rank in this step

@@ -233,6 +233,9 @@ void reset(const StepModel& m, StepData& d, double t, const VectorX& q, const Ve
 // a body tree's kinetic energy is that of its mass crossing the scene 100 times in one step
 void checkRunaway(const StepModel& m, const StepData& d);
 void midpoint(const StepModel& m, StepData& d);  // 1
+// a distributed step's owner of a contact: the lowest rank that owns one of its bodies with
+// dofs (StepData::body_rank), -1 where body_rank knows none
+int contactOwner(const std::vector<int>& body_rank, const Contact& contact);
 // 2, with margins of at least `at_least`
 void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least = {});
 void freeVelocity(const StepModel& m, StepData& d);      // 4 (M(q_m) factored here; 3 needs it)

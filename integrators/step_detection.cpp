@@ -18,21 +18,23 @@ void midpoint(const StepModel& m, StepData& d) {
   integrate(m.model, d.q, 0.5 * m.settings.h * d.v, d.q_m, m.threads);
 }
 
+int contactOwner(const std::vector<int>& body_rank, const Contact& contact) {
+  int lowest = -1;
+  for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+    if (body->kind == BodyRef::Kind::Dynamic) {
+      const int owner = body_rank[body->index];
+      if (owner >= 0 && (lowest < 0 || owner < lowest)) lowest = owner;
+    }
+  return lowest;
+}
+
 namespace {
-// a contact belongs to the lowest rank that owns one of its bodies with dofs
 void keepOwnedContacts(const std::vector<int>& body_rank, int rank,
                        std::vector<Contact>& contacts) {
-  auto owned = [&](const Contact& contact) {
-    int lowest = -1;
-    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
-      if (body->kind == BodyRef::Kind::Dynamic) {
-        const int owner = body_rank[body->index];
-        if (owner >= 0 && (lowest < 0 || owner < lowest)) lowest = owner;
-      }
-    return lowest == rank;
-  };
   contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
-                                [&](const Contact& contact) { return !owned(contact); }),
+                                [&](const Contact& contact) {
+                                  return contactOwner(body_rank, contact) != rank;
+                                }),
                  contacts.end());
 }
 }  // namespace

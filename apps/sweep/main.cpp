@@ -200,6 +200,29 @@ static int runCommand(int argc, char** argv) {
                   "contact rows for benchmarks: auto, generic (no packed rows), body-form or "
                   "compact (3D spheres' rows); the same results up to round-off")
       ->check(row_storages);
+#ifdef SWEEP_RANKS
+  // a finite number >= 0 (CLI::NonNegativeNumber lets nan through)
+  const CLI::Validator finite_non_negative(
+      [](std::string& text) {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0' || !std::isfinite(value) || value < 0.0)
+          return "must be a finite number >= 0, got " + text;
+        return std::string();
+      },
+      "NUMBER >= 0");
+  sweep::DistributedSettings distributed;
+  run->add_option("--rebalance-every", distributed.rebalance_interval,
+                  "on MPI ranks: steps between two checks of the balance (0: balanced at the "
+                  "start only)")
+      ->check(finite_non_negative)
+      ->capture_default_str();
+  run->add_option("--rebalance-above", distributed.rebalance_above,
+                  "on MPI ranks: cut again by work at a check when the most work on one rank "
+                  "exceeds this times the mean (0: at every check)")
+      ->check(finite_non_negative)
+      ->capture_default_str();
+#endif
   std::string initial_state;
   run->add_option("--initial-state", initial_state,
                   "start from a final_state.csv of an earlier run of this scene (its t, q, v)");
@@ -388,7 +411,7 @@ static int runCommand(int argc, char** argv) {
       const sweep::CooperativeStop polled;  // the loop stops between steps
 #ifdef SWEEP_RANKS
       const sweep::RunSummary summary =
-          ranks.size() > 1 ? sweep::runSceneOnRanks(ranks, scene, file.run, options)
+          ranks.size() > 1 ? sweep::runSceneOnRanks(ranks, scene, file.run, options, distributed)
                            : sweep::runScene(scene, file.run, options);
 #else
       const sweep::RunSummary summary = sweep::runScene(scene, file.run, options);

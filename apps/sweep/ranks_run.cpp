@@ -95,7 +95,8 @@ RunSummary runSceneOnRanks(const RankGroup& ranks, const Scene& scene, const Run
       // rank 0 writes the files: only it checks and opens them
       recorder = std::make_unique<RunRecorder>(
           scene, settings, rank_options, t_start, steps, root,
-          std::vector<std::string>{"bytes_sent", "shared_bodies", "imbalance"});
+          std::vector<std::string>{"bytes_sent", "shared_bodies", "imbalance", "carried",
+                                   "handed_over"});
     } catch (...) {
       error = std::current_exception();
     }
@@ -155,8 +156,9 @@ RunSummary runSceneOnRanks(const RankGroup& ranks, const Scene& scene, const Run
     summary.imbalance_max = std::max(summary.imbalance_max, d.imbalance);
     bool due = false;
     try {
-      due = recorder->addStep(s, {static_cast<double>(d.bytes_sent),
-                                  static_cast<double>(d.shared_bodies), d.imbalance});
+      due = recorder->addStep(
+          s, {static_cast<double>(d.bytes_sent), static_cast<double>(d.shared_bodies), d.imbalance,
+              static_cast<double>(d.carried), static_cast<double>(d.handed_over)});
     } catch (const std::exception& e) {
       abortRanks(ranks, e.what(), 1);  // a stats.csv rank 0 cannot write
     }

@@ -295,6 +295,21 @@ class Hostile(unittest.TestCase):
             self.assertIn(message, r.stderr)
             self.assertFalse(os.path.exists(os.path.join(folder, "out", "summary.json")))
 
+    def test_bad_balance_options_are_refused(self):
+        if "--rebalance-every" not in sweep("run", "--help").stdout:
+            self.skipTest("a build without MPI has no balance options")
+        folder = scratch_dir(self, "sweep_balance_")
+        for options, message in [
+            (["--rebalance-every", "-1"], "--rebalance-every: must be a finite number >= 0, got -1"),
+            (["--rebalance-above", "nan"], "--rebalance-above: must be a finite number >= 0, got nan"),
+            (["--rebalance-above", "-0.5"], "--rebalance-above: must be a finite number >= 0, got -0.5"),
+        ]:
+            r = sweep("run", "small_box.yaml", "--out", os.path.join(folder, "out"), "--quiet",
+                      *options)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(message, r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(folder, "out", "summary.json")))
+
     def test_empty_or_folder_outputs_are_refused(self):
         for command in (["run", "small_box.yaml"], ["bench", "small_box.yaml", "--dt", "1e-3"]):
             r = sweep(*command, "--out", "", "--quiet")

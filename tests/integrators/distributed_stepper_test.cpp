@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -182,6 +184,59 @@ TEST(DistributedStepper, PeriodicBedAgreesAndRepeatsToTheBit) {
       "[ranks %d] periodic bed: largest difference to the single process %.3g m, "
       "%.3g m/s\n",
       ranks.size(), position, speed);
+}
+
+// Cut again by work at every step, the cuts move and contacts change rank: each takes its
+// impulse and frame to its new owner, so the ranks together find as many contacts of the last
+// step as the single process does, step by step.
+TEST(DistributedStepper, RebalancedContactsKeepTheirWarmStarts) {
+  const RankGroup ranks = RankGroup::world();
+  const Scene scene = fallingSpheres(16, 3, 2, true);
+  const SchemeSettings settings = settingsFor();
+  DistributedSettings distributed;
+  distributed.rebalance_interval = 1;
+  distributed.rebalance_above = 0.0;
+  TimeStepper serial(scene.model, scene.cmodel, settings);
+  serial.reset(0.0, scene.q0, scene.v0);
+  DistributedStepper stepper(ranks, scene.model, scene.cmodel, settings, distributed);
+  stepper.reset(0.0, scene.q0, scene.v0);
+  std::int64_t handed_over = 0, carried = 0, carried_serial = 0;
+  for (int k = 0; k < 120; ++k) {
+    serial.step();
+    stepper.step();
+    std::int64_t matched = 0;
+    for (const Contact& contact : serial.contactData().contacts)
+      matched += contact.previous >= 0 ? 1 : 0;
+    EXPECT_EQ(stepper.distributedStats().carried, matched) << "step " << k;
+    carried += stepper.distributedStats().carried;
+    carried_serial += matched;
+    handed_over += stepper.distributedStats().handed_over;
+  }
+  EXPECT_GT(carried_serial, 1000);
+  if (ranks.size() > 1) {
+    EXPECT_GT(handed_over, 0) << "ranks " << ranks.size();
+  }
+  std::printf(
+      "[ranks %d] rebalanced every step: %lld contacts carried (single process %lld), "
+      "%lld handed over\n",
+      ranks.size(), static_cast<long long>(carried), static_cast<long long>(carried_serial),
+      static_cast<long long>(handed_over));
+}
+
+// Bad balance settings are refused naming the field.
+TEST(DistributedStepper, RefusesBadRebalanceSettings) {
+  const RankGroup ranks = RankGroup::world();
+  const Scene scene = fallingSpheres(2, 2, 1, false);
+  for (const double above : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    DistributedSettings distributed;
+    distributed.rebalance_above = above;
+    try {
+      DistributedStepper stepper(ranks, scene.model, scene.cmodel, settingsFor(), distributed);
+      ADD_FAILURE() << "rebalance_above " << above << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("rebalance_above"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(DistributedStepper, RefusesWhatDoesNotRunOnRanks) {
