@@ -200,7 +200,8 @@ void DistributedStepper::handOverContacts() {
   std::size_t arriving = 0;
   for (int r = 0; r < size; ++r) arriving += receive_[r].size() / width;
   if (arriving == 0) return;
-  // the contacts handed away stay here: this rank no longer detects them as its own
+  // the contacts handed away stay in this list too, unmatched: this rank no longer detects them
+  const int kept = static_cast<int>(contacts.size());
   d_.impulse.resize(contacts.size(), Vector3::Zero());
   if (rolling) d_.rolling.resize(contacts.size(), Vector2::Zero());
   for (int r = 0; r < size; ++r)
@@ -215,11 +216,13 @@ void DistributedStepper::handOverContacts() {
       d_.impulse.emplace_back(x[6], x[7], x[8]);
       if (rolling) d_.rolling.emplace_back(x[9], x[10]);
     }
+  // detection left this rank's list sorted by key: sort the arrivals and merge
   const int n = static_cast<int>(contacts.size());
   merge_order_.resize(n);
   for (int c = 0; c < n; ++c) merge_order_[c] = c;
-  std::sort(merge_order_.begin(), merge_order_.end(),
-            [&](int a, int b) { return contacts[a].key < contacts[b].key; });
+  auto byKey = [&](int a, int b) { return contacts[a].key < contacts[b].key; };
+  std::sort(merge_order_.begin() + kept, merge_order_.end(), byKey);
+  std::inplace_merge(merge_order_.begin(), merge_order_.begin() + kept, merge_order_.end(), byKey);
   merged_contacts_.resize(n);
   merged_impulse_.resize(n);
   for (int c = 0; c < n; ++c) {
