@@ -61,16 +61,20 @@ ContactData::ContactData(const Model& /*model*/, const ContactModel& cmodel)
 }
 
 void restrictParticles(const ContactModel& cmodel, const std::vector<char>& body_marked,
-                       ContactData& cdata) {
+                       ContactData& cdata, const std::vector<int>* body_rank, int rank) {
   if (cdata.fcl) return;
   cdata.particles.clear();
   cdata.particle_radius.clear();
+  cdata.particle_rank.clear();
+  cdata.pair_rank = body_rank != nullptr ? rank : -1;
   for (const int g : cdata.every_particle) {
     const BodyRef& body = cmodel.geometries[g].body;
-    if (!body_marked.empty() && !(body.kind == BodyRef::Kind::Dynamic && body_marked[body.index]))
-      continue;
+    const bool dynamic = body.kind == BodyRef::Kind::Dynamic;
+    if (!body_marked.empty() && !(dynamic && body_marked[body.index])) continue;
     cdata.particles.push_back(g);
     cdata.particle_radius.push_back(cmodel.geometries[g].shape.radius);
+    if (body_rank != nullptr)
+      cdata.particle_rank.push_back(dynamic ? (*body_rank)[body.index] : -1);
   }
 }
 

@@ -64,6 +64,11 @@ struct ContactData {
   std::vector<Vector3> particle_center;
   std::vector<double> particle_radius;
   std::vector<std::pair<int, int>> ghost_of;  // periodic images: (particle, image) per ghost
+  // grid path, a rank of a distributed run: the owner rank of each binned particle's body, and
+  // this rank (-1: every pair is kept). Pairs whose lowest owner is another rank are not
+  // this rank's contacts and are left out before the narrowphase.
+  std::vector<int> particle_rank;
+  int pair_rank = -1;
   GridBroadphase grid;
   std::unique_ptr<FclScene> fcl;
 };
@@ -75,9 +80,12 @@ void updateGeometryPoses(const Model& model, const Data& data, const ContactMode
 
 // Grid path: bins only the particles whose body is marked (a rank's own and ghost grains in
 // a distributed run, integrators/distributed_stepper.hpp); an empty mark bins every particle.
-// The other geometries are not restricted.
+// With body_rank (each body's owner rank), the pairs are those whose lowest owner is `rank`:
+// a particle's pairs with the other geometries where it is the rank's own, two particles'
+// where either is. The other geometries are not restricted.
 void restrictParticles(const ContactModel& cmodel, const std::vector<char>& body_marked,
-                       ContactData& cdata);
+                       ContactData& cdata, const std::vector<int>* body_rank = nullptr,
+                       int rank = -1);
 
 // Largest speed of a shape point at (q, v) and t: |v_origin| + |w| * reach per geometry.
 // Needs forwardKinematics(model, data, q, v).

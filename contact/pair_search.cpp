@@ -43,9 +43,18 @@ void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData&
   const std::size_t first = cdata.pairs.size();
   cdata.grid.findPairs(margin, cdata.pairs, threads, &cdata.run_pairs);
   std::size_t kept = first;
+  // a distributed run's rank keeps the pairs whose lowest owner rank is its own
+  // (restrictParticles); a particle of no rank's (-1) leaves the verdict to the other side
+  const bool by_rank = cdata.pair_rank >= 0;
+  auto lowestRank = [&](int a, int b) {
+    const int ra = cdata.particle_rank[a], rb = cdata.particle_rank[b];
+    return ra < 0 ? rb : rb < 0 ? ra : std::min(ra, rb);
+  };
+  auto originalOf = [&](int k) { return k < n ? k : cdata.ghost_of[k - n].first; };
   for (std::size_t k = first; k < cdata.pairs.size(); ++k) {
     int i = cdata.pairs[k].first, j = cdata.pairs[k].second;
     if (i >= n && j >= n) continue;  // two images: the pair of their originals is found as is
+    if (by_rank && lowestRank(originalOf(i), originalOf(j)) != cdata.pair_rank) continue;
     if (i < n && j < n) {
       i = cdata.particles[i];
       j = cdata.particles[j];
@@ -69,6 +78,9 @@ void broadphaseGrid(const Model& model, const ContactModel& cmodel, ContactData&
     const Shape& shape = cmodel.geometries[g].shape;
     auto add = [&](int k) {
       if (k >= n) return;  // images meet only grains
+      // another rank's grain: its contacts with the walls are that rank's
+      if (by_rank && cdata.particle_rank[k] >= 0 && cdata.particle_rank[k] != cdata.pair_rank)
+        return;
       const int p = cdata.particles[k];
       cdata.pairs.push_back(encodePair(std::min(g, p), std::max(g, p)));
     };

@@ -28,10 +28,10 @@ Quaternion exponential(const Vector3& rotation_vector) {
 
 }  // namespace
 
-void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out,
-               int threads) {
+void integrate(const Model& model, const VectorX& q, const VectorX& dv, VectorX& q_out, int threads,
+               const std::vector<int>* components) {
   if (&q_out != &q) q_out = q;
-  forEachBodyComponent(model, threads, [&](int c) {
+  forEachBodyComponent(model, components, threads, [&](int c) {
     const Component& comp = model.components[c];
     for (int i = comp.first_body; i < comp.end_body; ++i) {
       const Body& b = model.bodies[i];
@@ -144,8 +144,9 @@ VectorX velocityFromBodyFrame(const Model& model, const VectorX& q, const Vector
   return rotateFloatingLinear(model, q, v_body, false);
 }
 
-void normalizeConfiguration(const Model& model, VectorX& q, int threads) {
-  forEachBodyComponent(model, threads, [&](int c) {
+void normalizeConfiguration(const Model& model, VectorX& q, int threads,
+                            const std::vector<int>* components) {
+  forEachBodyComponent(model, components, threads, [&](int c) {
     const Component& comp = model.components[c];
     for (int i = comp.first_body; i < comp.end_body; ++i) {
       const Body& b = model.bodies[i];

@@ -27,7 +27,7 @@ void computeMassBlocks(const Model& model, Data& data, bool include_constant) {
     if (comp.system >= 0 && (include_constant || !comp.constant_mass))
       data.mass_blocks[c] = systemMass(model, c, data.q);
   }
-  forEachBodyComponent(model, data.threads, [&](int c) {
+  forEachBodyComponent(model, data.componentSubset(), data.threads, [&](int c) {
     const Component& comp = model.components[c];
     if (comp.constant_mass && !include_constant) return;
     MatrixX& block = data.mass_blocks[c];
@@ -79,7 +79,7 @@ void crba(const Model& model, Data& data, const VectorX& q) {
 }
 
 void factorizeMassMatrix(const Model& model, Data& data) {
-  forEachBodyComponent(model, data.threads, [&](int c) {
+  forEachBodyComponent(model, data.componentSubset(), data.threads, [&](int c) {
     if (!model.components[c].constant_mass) data.mass_factors[c].compute(data.mass_blocks[c]);
   });
   for (size_t c = model.components.size() - model.systems.size(); c < model.components.size(); ++c)
@@ -103,7 +103,7 @@ void applyMassInverse(const Model& model, const Data& data, const VectorX& rhs, 
     auto segment = out.segment(comp.v_index, comp.nv);
     data.mass_factors[c].solveInPlace(segment);
   };
-  forEachBodyComponent(model, data.threads, solve);
+  forEachBodyComponent(model, data.componentSubset(), data.threads, solve);
   for (int c = static_cast<int>(model.components.size() - model.systems.size());
        c < static_cast<int>(model.components.size()); ++c)
     solve(c);

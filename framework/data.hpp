@@ -48,6 +48,14 @@ struct Data {
   // the passes over the body trees (kinematics, RNEA, mass blocks, M^-1) run on this many
   // threads when the model has kParallelItems trees or more (framework/parallel.hpp)
   int threads = 1;
+  // the body trees those passes visit: every one, or with restrict_components only those in
+  // `components`; the others' entries are left as they were. A rank of a distributed run steps
+  // its own and its ghost grains only (integrators/distributed_stepper.hpp).
+  bool restrict_components = false;
+  std::vector<int> components;
+  const std::vector<int>* componentSubset() const {
+    return restrict_components ? &components : nullptr;
+  }
 };
 
 }  // namespace sweep

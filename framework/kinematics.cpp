@@ -17,7 +17,7 @@ void forwardPass(const Model& model, Data& data, const VectorX& q, const VectorX
       data.v.setZero(model.nv);
   }
   // tree by tree, each in body order (a parent before its children)
-  forEachBodyComponent(model, data.threads, [&](int c) {
+  forEachBodyComponent(model, data.componentSubset(), data.threads, [&](int c) {
     const Component& comp = model.components[c];
     for (int i = comp.first_body; i < comp.end_body; ++i) {
       const Body& body = model.bodies[i];

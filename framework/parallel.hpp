@@ -37,10 +37,21 @@ void forEachIndex(Index n, int threads, Body&& body) {
 // visit(c) for each component c with bodies (the trees; systems by their equations, which
 // may call back into an interpreter, are left to the caller), on up to `threads` threads once
 // there are kParallelItems of them: a granular scene, a particle each.
+// With a subset (Data::componentSubset), the trees it lists only.
 template <class Visit>
-void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
+void forEachBodyComponent(const Model& model, const std::vector<int>* subset, int threads,
+                          Visit&& visit) {
+  if (subset != nullptr) {
+    const int count = static_cast<int>(subset->size());
+    forEachIndex(count, threads, [&](int i) { visit((*subset)[i]); });
+    return;
+  }
   const int count = static_cast<int>(model.components.size() - model.systems.size());
   forEachIndex(count, threads, visit);
+}
+template <class Visit>
+void forEachBodyComponent(const Model& model, int threads, Visit&& visit) {
+  forEachBodyComponent(model, nullptr, threads, visit);
 }
 
 // Folds add(i, part) over i in [0, n) chunk by chunk (kReduceChunk items each, every part

@@ -15,7 +15,7 @@ const VectorX& rneaPasses(const Model& model, Data& data, const VectorX& v, cons
   base_acceleration << Vector3::Zero(), gravity ? Vector3(-model.gravity) : Vector3::Zero();
 
   // tree by tree: the forward pass in body order, the backward pass in reverse
-  forEachBodyComponent(model, data.threads, [&](int c) {
+  forEachBodyComponent(model, data.componentSubset(), data.threads, [&](int c) {
     const Component& comp = model.components[c];
     // forward: a_i = X_i a_parent + S_i qdd_i + c_J + v_i x (S_i qd_i);  f_i = I a + v x* I v
     for (int i = comp.first_body; i < comp.end_body; ++i) {

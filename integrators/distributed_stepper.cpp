@@ -64,6 +64,8 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
                            (cmodel.dimension == 3 ? "spheres" : "disks") +
                            " (and bodies without dofs) run on ranks");
     particle_body_.push_back(c.first_body);
+    component_of_.resize(model.bodies.size(), -1);
+    component_of_[c.first_body] = static_cast<int>(&c - model.components.data());
     nq_ = c.nq;
     nv_ = c.nv;
   }
@@ -110,6 +112,7 @@ void DistributedStepper::writeState(const ParticleSet& set, int i) {
 }
 
 void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
+  d_.model_data.restrict_components = false;  // the whole state's kinematics, once
   stepping::reset(m_, d_, t, q, v);
   d_.body_rank.assign(m_.model.bodies.size(), -1);
   d_.rank = ranks_.rank();
@@ -256,7 +259,16 @@ void DistributedStepper::receiveGhosts() {
     local_bodies_.push_back(b);
     writeState(ghosts_, i);
   }
-  restrictParticles(m_.cmodel, local_, d_.contact_data);
+  restrictParticles(m_.cmodel, local_, d_.contact_data, &d_.body_rank, ranks_.rank());
+  // the step's passes over the body trees (kinematics, dynamics, integration) take this
+  // rank's own and ghost grains only: every grain is some tree of its own
+  if (ranks_.size() > 1) {
+    std::vector<int>& components = d_.model_data.components;
+    components.clear();
+    for (const int b : local_bodies_) components.push_back(component_of_[b]);
+    std::sort(components.begin(), components.end());
+    d_.model_data.restrict_components = true;
+  }
 }
 
 void DistributedStepper::findSharedBodies() {
@@ -393,6 +405,9 @@ const StepStats& DistributedStepper::step() {
     redoStep(m_, d_, needed, [&](const DetectionMargins& margins) { detectAndSolve(margins); });
   }
   update(m_, d_);
+  // the free velocity of a grain this rank neither owns nor sees was not computed: at rest
+  for (const int b : particle_body_)
+    if (!local_[b]) d_.v.segment(m_.model.bodies[b].v_index, nv_).setZero();
   findFailure();
   if (failure_.empty()) stepping::diagnose(m_, d_);
   wrapPeriodic(m_.cmodel, d_.q);

@@ -32,8 +32,9 @@
 // when the balance has gone, DistributedSettings), the last step's contacts whose owner changed
 // go to the new owner with their impulses (warm starts), the copies within ghost_width of a
 // rank's region arrive with q and v (ghost exchange), and detection bins the owned and ghost
-// grains only. Every rank holds
-// the whole Model and state vectors; what it does not own or see is at rest and stale.
+// grains only, and the passes over the body trees (kinematics, dynamics, integration) visit
+// those grains only (Data::componentSubset). Every rank holds the whole Model and state
+// vectors; what it does not own or see is at rest and stale.
 //
 // Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
 // dofs are all free disks (ordered sweeps only); walls, plates, blades and other driven or
@@ -178,6 +179,7 @@ class DistributedStepper {
   int nq_ = 0, nv_ = 0;                               // of each particle's floating joint
   std::vector<int> particle_body_;                    // the bodies with dofs (every one a particle)
   std::vector<char> is_particle_;                     // per body
+  std::vector<int> component_of_;                     // per particle body: its tree
   std::string failure_;                               // this step's, on this rank
   bool runaway_ = false;
   ParticleSet owned_, ghosts_;
@@ -208,6 +210,8 @@ class DistributedStepper {
   std::int64_t shared_count_ = 0;  // glued bodies this rank touches that another rank does
   int colours_ = 1, my_colour_ = 0;
   std::vector<int> interior_rows_, interface_rows_;
+  // ordered sweeps: the interior rows swept in colour c's turn, [turn_begin_[c], [c + 1])
+  std::vector<int> turn_begin_;
   std::vector<double> base_inverse_mass_, base_inverse_inertia_;  // per body, unsplit
   std::vector<int> split_;                   // bodies whose masses are split this step
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)

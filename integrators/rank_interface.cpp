@@ -287,16 +287,31 @@ void DistributedStepper::solveInRankOrder() {
     momentum.emplace(d_.problem, std::initializer_list<ImpulseArray>{impulses(d_.P), impulses(R)},
                      v, d_.solver_ws, n);
   }
+  // The interior rows are spread over the colours' turns so that every rank sweeps as many
+  // rows between two exchanges: with I interior and F interface rows, (I + F) / C in each of
+  // the C turns, the interface rows in its own. Swept all before the first turn, a rank's
+  // interior waited through the other colours' interface rows: (I + C F) a sweep, not I + F.
+  const int interior = static_cast<int>(interior_rows_.size());
+  const int interface = static_cast<int>(interface_rows_.size());
+  const double per_turn = static_cast<double>(interior + interface) / colours_;
+  turn_begin_.assign(colours_ + 1, interior);
+  turn_begin_[0] = 0;
+  for (int colour = 0; colour + 1 < colours_; ++colour) {
+    const double share = colour == my_colour_ ? std::max(0.0, per_turn - interface) : per_turn;
+    turn_begin_[colour + 1] =
+        std::min(interior, turn_begin_[colour] + static_cast<int>(std::lround(share)));
+  }
   for (int it = 0; it < settings.max_iterations; ++it) {
     double change2 = 0.0, size2 = 0.0;
     failures = 0;
-    sweepCoulombRows(d_.problem, settings, d_.P, R, v, interior_rows_.data(),
-                     static_cast<int>(interior_rows_.size()), change2, size2, failures);
     for (int colour = 0; colour < colours_; ++colour) {
+      sweepCoulombRows(d_.problem, settings, d_.P, R, v,
+                       interior_rows_.data() + turn_begin_[colour],
+                       turn_begin_[colour + 1] - turn_begin_[colour], change2, size2, failures);
       const bool mine = colour == my_colour_;
       if (mine)
-        sweepCoulombRows(d_.problem, settings, d_.P, R, v, interface_rows_.data(),
-                         static_cast<int>(interface_rows_.size()), change2, size2, failures);
+        sweepCoulombRows(d_.problem, settings, d_.P, R, v, interface_rows_.data(), interface,
+                         change2, size2, failures);
       sendSharedVelocities(mine, v);
     }
     ++sweeps;

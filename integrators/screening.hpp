@@ -14,19 +14,24 @@
 namespace sweep {
 
 // World twist (angular velocity, velocity of the origin) of each root body at v, from the
-// motion subspaces of data (body frame, as the Jacobian's columns); bodies with a parent are
-// left as they are and never read.
+// motion subspaces of data (body frame, as the Jacobian's columns); bodies with a parent, and
+// those of trees outside data's component subset, are left as they are and never read.
 inline void rootBodyTwists(const Model& model, const Data& data, const VectorX& v,
                            std::vector<Vector6>& twists, int threads) {
   twists.resize(model.bodies.size());
-  const long bodies = static_cast<long>(model.bodies.size());
-  forEachIndex(bodies, threads, [&](long b) {
+  auto twist = [&](long b) {
     if (model.bodies[b].parent >= 0) return;
     const Vector6 local = data.motion_subspace[b].apply(v.data() + model.bodies[b].v_index);
     const Matrix3& R = data.world_pose[b].rotation;
     twists[b].head<3>() = R * local.head<3>();
     twists[b].tail<3>() = R * local.tail<3>();
-  });
+  };
+  if (const std::vector<int>* subset = data.componentSubset()) {  // the trees the step moves
+    forEachBodyComponent(model, subset, threads,
+                         [&](int c) { twist(model.components[c].first_body); });
+    return;
+  }
+  forEachIndex(static_cast<long>(model.bodies.size()), threads, twist);
 }
 
 // Whether each side is a root body, a driven body or the world: then U_N follows from the

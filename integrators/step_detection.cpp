@@ -15,7 +15,8 @@ namespace sweep {
 namespace stepping {
 
 void midpoint(const StepModel& m, StepData& d) {
-  integrate(m.model, d.q, 0.5 * m.settings.h * d.v, d.q_m, m.threads);
+  integrate(m.model, d.q, 0.5 * m.settings.h * d.v, d.q_m, m.threads,
+            d.model_data.componentSubset());
 }
 
 int contactOwner(const std::vector<int>& body_rank, const Contact& contact) {

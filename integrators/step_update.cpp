@@ -23,8 +23,14 @@ void checkRunaway(const StepModel& m, const StepData& d) {
   constexpr double kRunawayExtents = 100.0;
   if (!(d.scene_extent > 0.0)) return;
   const double speed = kRunawayExtents * d.scene_extent / m.h();
-  const int trees = static_cast<int>(m.model.components.size() - m.model.systems.size());
-  for (int c = 0; c < trees; ++c) {
+  // the trees the step moved (Data::componentSubset): the others' velocities are not this
+  // process's to check
+  const std::vector<int>* subset = d.model_data.componentSubset();
+  const int trees = subset != nullptr
+                        ? static_cast<int>(subset->size())
+                        : static_cast<int>(m.model.components.size() - m.model.systems.size());
+  for (int k = 0; k < trees; ++k) {
+    const int c = subset != nullptr ? (*subset)[k] : k;
     const Component& comp = m.model.components[c];
     const double mass = m.component_mass[c];
     if (comp.nv == 0 || !(mass > 0.0)) continue;
@@ -86,8 +92,9 @@ void update(const StepModel& m, StepData& d) {
   d.stats.work_normal = work[0];
   d.stats.work_tangent = work[1];
   d.v = d.v_free;
-  integrate(m.model, d.q_m, 0.5 * m.settings.h * d.v, d.q, m.threads);
-  normalizeConfiguration(m.model, d.q, m.threads);
+  const std::vector<int>* components = d.model_data.componentSubset();
+  integrate(m.model, d.q_m, 0.5 * m.settings.h * d.v, d.q, m.threads, components);
+  normalizeConfiguration(m.model, d.q, m.threads, components);
   d.t += m.settings.h;
   d.stats.t = d.t;
   d.stats.t_update = secondsSince(start);
