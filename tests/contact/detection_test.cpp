@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "contact_test_scenes.hpp"
 #include "framework/configuration.hpp"
 #include "framework/error.hpp"
@@ -438,6 +440,79 @@ TEST(Detection, ThreadsGiveTheSameContacts) {
       ASSERT_EQ(a.tangent1, b.tangent1) << threads << " threads, contact " << k;
       ASSERT_EQ(a.point_b, b.point_b) << threads << " threads, contact " << k;
     }
+  }
+}
+
+// A rank of a distributed run bins its own and its ghost grains and keeps the pairs whose
+// lowest owner rank is its own (restrictParticles with body_rank): three ranks, cut along x,
+// a periodic axis along y, a floor and a wall. Together the ranks find every contact of the
+// whole scene once, each on the rank that owns it, with the same gaps.
+TEST(Detection, RanksKeepThePairsTheyOwnAndTogetherFindEveryOne) {
+  ModelBuilder builder("lattice");
+  const int nx = 24, ny = 10, nz = 4, count = nx * ny * nz;
+  for (int i = 0; i < count; ++i)
+    addFreeBody(builder, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.5));
+  builder.setGravity(Vector3::Zero());
+  const Model model = builder.build();
+  ContactModelBuilder contacts(model);
+  for (int i = 0; i < count; ++i)
+    contacts.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                         Shape::sphere(0.5 + 0.01 * (i % 5)));
+  contacts.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+  Pose wall = Pose::identity();
+  wall.translation = Vector3(-0.45, 5.0, 2.0);
+  contacts.addGeometry("wall", BodyRef::world(), wall, Shape::box(Vector3(0.2, 12.0, 6.0)));
+  DetectionSettings settings;
+  settings.periodic.axis = 1;
+  settings.periodic.low = -0.5;
+  settings.periodic.high = ny - 0.5;
+  contacts.setSettings(settings);
+  const ContactModel cmodel = contacts.build();
+  ASSERT_EQ(cmodel.path, DetectionPath::Analytic);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+  VectorX q = model.neutralConfiguration();
+  for (int i = 0; i < count; ++i)
+    test::placeBody(model, q, i,
+                    Vector3(i % nx, (i / nx) % ny, 0.5 + i / (nx * ny)) +
+                        Vector3(jitter(rng), jitter(rng), jitter(rng)),
+                    Quaternion::Identity());
+  Data data(model);
+  forwardKinematics(model, data, q);
+  const DetectionMargins margins = DetectionMargins::uniform(0.05);
+  ContactData whole(model, cmodel);
+  detectContacts(model, data, cmodel, whole, 0.0, margins);
+  ASSERT_GT(whole.contacts.size(), 2u * count);
+
+  const int ranks = 3;
+  auto rankAt = [&](double x) { return std::clamp(static_cast<int>(x / (nx / ranks)), 0, 2); };
+  std::vector<int> body_rank(count);
+  for (int i = 0; i < count; ++i) body_rank[i] = rankAt(q[model.bodies[i].q_index]);
+  std::vector<std::pair<ContactKey, double>> found;
+  for (int rank = 0; rank < ranks; ++rank) {
+    // owned, and the ghosts within two diameters of the rank's slab
+    std::vector<char> local(count, 0);
+    for (int i = 0; i < count; ++i) {
+      const double x = q[model.bodies[i].q_index];
+      local[i] = rankAt(x - 2.2) <= rank && rankAt(x + 2.2) >= rank;
+    }
+    ContactData mine(model, cmodel);
+    restrictParticles(cmodel, local, mine, &body_rank, rank);
+    detectContacts(model, data, cmodel, mine, 0.0, margins);
+    for (const Contact& contact : mine.contacts) {
+      int lowest = ranks;
+      for (const BodyRef* body : {&contact.body_a, &contact.body_b})
+        if (body->kind == BodyRef::Kind::Dynamic) lowest = std::min(lowest, body_rank[body->index]);
+      EXPECT_EQ(lowest, rank);
+      found.emplace_back(contact.key, contact.gap);
+    }
+  }
+  std::sort(found.begin(), found.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  ASSERT_EQ(found.size(), whole.contacts.size());
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    EXPECT_EQ(found[k].first, whole.contacts[k].key);
+    EXPECT_EQ(found[k].second, whole.contacts[k].gap);
   }
 }
 

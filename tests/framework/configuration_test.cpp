@@ -90,5 +90,40 @@ TEST_P(ConfigurationTest, BodyFrameVelocityIsTheBodysOwnTwist) {
 INSTANTIATE_TEST_SUITE_P(AllModels, ConfigurationTest, ::testing::Range(0, test::modelCount()),
                          test::modelName);
 
+// A subset of the body trees (Data::componentSubset): the passes over trees visit those only;
+// integrate copies the others' coordinates, and forwardKinematics leaves their poses as they
+// were (a rank of a distributed run steps its own and ghost grains only).
+TEST(Configuration, AComponentSubsetMovesItsTreesOnly) {
+  ModelBuilder b;
+  for (int i = 0; i < 4; ++i)
+    addFreeBody(b, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.1));
+  const Model model = b.build();
+  ASSERT_EQ(model.components.size(), 4u);
+  std::mt19937 rng(5);
+  const VectorX q = test::randomConfiguration(model, rng);
+  const VectorX dv = test::randomVector(model.nv, rng);
+  const std::vector<int> subset{1, 3};
+  VectorX moved;
+  integrate(model, q, dv, moved, 1, &subset);
+  const VectorX all = integrate(model, q, dv);
+  Data data(model), whole(model);
+  forwardKinematics(model, whole, all);
+  data.restrict_components = true;
+  data.components = subset;
+  forwardKinematics(model, data, moved);
+  for (int c = 0; c < 4; ++c) {
+    const Component& comp = model.components[c];
+    const bool in = c == 1 || c == 3;
+    const VectorX expected = (in ? all : q).segment(comp.q_index, comp.nq);
+    EXPECT_EQ(moved.segment(comp.q_index, comp.nq), expected) << c;
+    const Pose& pose = data.world_pose[comp.first_body];
+    if (in) {
+      EXPECT_EQ(pose.translation, whole.world_pose[comp.first_body].translation) << c;
+    } else {
+      EXPECT_EQ(pose.translation, Vector3::Zero()) << c;  // never computed
+    }
+  }
+}
+
 }  // namespace
 }  // namespace sweep
