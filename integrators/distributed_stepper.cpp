@@ -135,6 +135,7 @@ void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
   owned_.payload_width = nq_ + nv_;
   ghosts_.clear();
   std::fill(contact_count_.begin(), contact_count_.end(), 0);
+  work_counted_.clear();
   if (ranks_.rank() == 0) {  // rank 0 holds every grain until the first balance
     for (const int b : particle_body_) {
       owned_.id.push_back(b);
@@ -411,11 +412,23 @@ const StepStats& DistributedStepper::step() {
   findFailure();
   if (failure_.empty()) stepping::diagnose(m_, d_);
   wrapPeriodic(m_.cmodel, d_.q);
-  for (const int b : touched_list_) contact_count_[b] = 0;
+  for (const int b : work_counted_) contact_count_[b] = 0;
+  work_counted_.clear();
+  // the balance's work: each row this rank solves counts 2, shared by the sides this rank
+  // owns (a row across a cut, or on a wall, counts whole on the grain of this rank's)
+  const int rank = ranks_.rank();
   for (int c = 0; c < d_.problem.size(); ++c) {
     const Contact& contact = d_.contact_data.contacts[d_.problem.contact[c]];
-    for (const BodyRef* body : {&contact.body_a, &contact.body_b})
-      if (body->kind == BodyRef::Kind::Dynamic) ++contact_count_[body->index];
+    auto own = [&](const BodyRef& body) {
+      return body.kind == BodyRef::Kind::Dynamic && d_.body_rank[body.index] == rank;
+    };
+    const bool a = own(contact.body_a), b = own(contact.body_b);
+    for (const auto& [mine, body] :
+         {std::pair{a, contact.body_a.index}, {b, contact.body_b.index}}) {
+      if (!mine) continue;
+      if (contact_count_[body] == 0) work_counted_.push_back(body);
+      contact_count_[body] += a && b ? 1 : 2;
+    }
   }
   carried_ = 0;
   for (const Contact& contact : d_.contact_data.contacts) carried_ += contact.previous >= 0 ? 1 : 0;

@@ -215,6 +215,7 @@ class DistributedStepper {
   std::vector<double> base_inverse_mass_, base_inverse_inertia_;  // per body, unsplit
   std::vector<int> split_;                   // bodies whose masses are split this step
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)
+  std::vector<int> work_counted_;            // the bodies whose contact_count_ is not 0
   VectorX v_free_;                           // the contact-free velocity of this step
   std::vector<std::vector<double>> send_, receive_;
   // handOverContacts' merge: the order by key, and the lists in that order
