@@ -321,7 +321,10 @@ long projectOnClosedNormalsByCg(const ContactProblem& p, const SolverSettings& s
   for (int c = 0; c < n; ++c) {
     const double s_N = std::sqrt(p.delassus[c](0, 0));
     if (!rule.closed(c) || !(s_N > 0.0 && std::isfinite(s_N))) continue;
-    ws.normal_var[c] = ws.set.add(BlockSet::Free, 1);
+    // measured, as stage 5b measures a held row's drift, against the normal impulse the row
+    // carries: the offsets need no more than the stage that reads them resolves
+    const double carried = s_N * rule.lambda_N[c];
+    ws.normal_var[c] = ws.set.add(BlockSet::Free, 1, 0.0, carried * carried);
     ws.normal_scale[c] = 1.0 / s_N;
     ws.target[c] = nlgs.held_normal[c];
     ws.x.push_back(0.0);
