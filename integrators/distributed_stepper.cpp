@@ -51,6 +51,7 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
     const bool disk = g.shape.type == ShapeType::Disk && g.placement.translation.isZero(0.0);
     (disk ? centred_disk : other_shape)[g.body.index] = 1;
   }
+  component_of_.assign(model.bodies.size(), -1);
   for (const Component& c : model.components) {
     const Body& body = model.bodies[c.first_body];
     const bool single = c.end_body == c.first_body + 1;
@@ -64,7 +65,6 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
                            (cmodel.dimension == 3 ? "spheres" : "disks") +
                            " (and bodies without dofs) run on ranks");
     particle_body_.push_back(c.first_body);
-    component_of_.resize(model.bodies.size(), -1);
     component_of_[c.first_body] = static_cast<int>(&c - model.components.data());
     nq_ = c.nq;
     nv_ = c.nv;

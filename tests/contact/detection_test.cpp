@@ -12,6 +12,27 @@
 namespace sweep {
 namespace {
 
+// `count` free balls of unit mass without gravity
+Model freeBalls(int count) {
+  ModelBuilder builder("lattice");
+  for (int i = 0; i < count; ++i)
+    addFreeBody(builder, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.5));
+  builder.setGravity(Vector3::Zero());
+  return builder.build();
+}
+// their contact geometries, ball i of radius 0.5 + 0.01 (i % radius_cycle), then a floor and a
+// wall box at wall_centre
+void addBallsFloorAndWall(ContactModelBuilder& contacts, int count, int radius_cycle,
+                          const Vector3& wall_centre, const Vector3& wall_size) {
+  for (int i = 0; i < count; ++i)
+    contacts.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
+                         Shape::sphere(0.5 + 0.01 * (i % radius_cycle)));
+  contacts.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
+  Pose wall = Pose::identity();
+  wall.translation = wall_centre;
+  contacts.addGeometry("wall", BodyRef::world(), wall, Shape::box(wall_size));
+}
+
 // A sphere rolling without slip on a plane for a full turn: one contact, same identity every
 // step, and a tangent frame that never flips.
 TEST(ContactFrames, PersistentForASphereRollingOnAPlane) {
@@ -369,20 +390,10 @@ TEST(Detection, ALongBoxMeetsOnlyTheGrainsNearItsFace) {
 // threaded path) above a floor and beside a wall (runs of thousands of pairs), detected
 // twice, the second time moved, so that contacts are matched to the first detection's.
 TEST(Detection, ThreadsGiveTheSameContacts) {
-  ModelBuilder builder("lattice");
   const int count = 12000;
-  for (int i = 0; i < count; ++i)
-    addFreeBody(builder, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.5));
-  builder.setGravity(Vector3::Zero());
-  const Model model = builder.build();
+  const Model model = freeBalls(count);
   ContactModelBuilder contacts(model);
-  for (int i = 0; i < count; ++i)
-    contacts.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
-                         Shape::sphere(0.5 + 0.01 * (i % 7)));
-  contacts.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
-  Pose wall = Pose::identity();
-  wall.translation = Vector3(-0.4, 10.0, 5.0);
-  contacts.addGeometry("wall", BodyRef::world(), wall, Shape::box(Vector3(0.2, 30.0, 30.0)));
+  addBallsFloorAndWall(contacts, count, 7, Vector3(-0.4, 10.0, 5.0), Vector3(0.2, 30.0, 30.0));
   const ContactModel cmodel = contacts.build();
   ASSERT_EQ(cmodel.path, DetectionPath::Analytic);
 
@@ -448,20 +459,10 @@ TEST(Detection, ThreadsGiveTheSameContacts) {
 // a periodic axis along y, a floor and a wall. Together the ranks find every contact of the
 // whole scene once, each on the rank that owns it, with the same gaps.
 TEST(Detection, RanksKeepThePairsTheyOwnAndTogetherFindEveryOne) {
-  ModelBuilder builder("lattice");
   const int nx = 24, ny = 10, nz = 4, count = nx * ny * nz;
-  for (int i = 0; i < count; ++i)
-    addFreeBody(builder, "ball" + std::to_string(i), solidSphereInertia(1.0, 0.5));
-  builder.setGravity(Vector3::Zero());
-  const Model model = builder.build();
+  const Model model = freeBalls(count);
   ContactModelBuilder contacts(model);
-  for (int i = 0; i < count; ++i)
-    contacts.addGeometry("ball" + std::to_string(i), BodyRef::dynamic(i), Pose::identity(),
-                         Shape::sphere(0.5 + 0.01 * (i % 5)));
-  contacts.addGeometry("floor", BodyRef::world(), Pose::identity(), Shape::halfSpace());
-  Pose wall = Pose::identity();
-  wall.translation = Vector3(-0.45, 5.0, 2.0);
-  contacts.addGeometry("wall", BodyRef::world(), wall, Shape::box(Vector3(0.2, 12.0, 6.0)));
+  addBallsFloorAndWall(contacts, count, 5, Vector3(-0.45, 5.0, 2.0), Vector3(0.2, 12.0, 6.0));
   DetectionSettings settings;
   settings.periodic.axis = 1;
   settings.periodic.low = -0.5;
