@@ -518,6 +518,15 @@ ExchangeStats DomainDecomposition::migrate(ParticleSet& owned) {
   return sendPacked(owned);
 }
 
+bool DomainDecomposition::setGhostWidth(double width) {
+  if (!(std::isfinite(width) && width >= 0.0)) return false;
+  for (int a = 0; a < 3; ++a)
+    if (settings_.periodic[a] && 2.0 * width > settings_.upper[a] - settings_.lower[a])
+      return false;
+  settings_.ghost_width = width;
+  return true;
+}
+
 ExchangeStats DomainDecomposition::exchangeGhosts(const ParticleSet& owned, ParticleSet& ghosts) {
   ghosts.clear();
   ghosts.payload_width = owned.payload_width;

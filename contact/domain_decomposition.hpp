@@ -140,6 +140,9 @@ class DomainDecomposition {
   // Collective: the most work on one rank over the mean (1 is perfect balance).
   double imbalance(const ParticleSet& owned) const;
   const DecompositionSettings& settings() const { return settings_; }
+  // The next ghost exchanges' width; false (and the width kept) where a periodic axis's
+  // period is shorter than twice that width. Every rank must pass the same width.
+  bool setGhostWidth(double width);
 
  private:
   struct Node {

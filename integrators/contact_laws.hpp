@@ -441,4 +441,9 @@ struct FrictionStageRows {
   }
 };
 
+// Stage 5b's admissible warm start on v: rows without a threshold carry no friction, and a
+// guarded row pushes only, and only when something can move it (`any`: a row anywhere in the
+// problem, over every rank, has friction or rolling; no sweep runs otherwise).
+void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v);
+
 }  // namespace sweep

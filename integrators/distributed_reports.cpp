@@ -76,7 +76,8 @@ void DistributedStepper::reduceStats() {
                                  static_cast<double>(s.deferred),
                                  static_cast<double>(s.unassembled),
                                  static_cast<double>(carried_),
-                                 static_cast<double>(handed_over_)};
+                                 static_cast<double>(handed_over_),
+                                 static_cast<double>(s.iterations_stage2)};
   ranks_.gatherEqual(mine, reduce_all_);
   const std::vector<double>& all = reduce_all_;
   const std::size_t width = mine.size();
@@ -84,7 +85,7 @@ void DistributedStepper::reduceStats() {
          shared = 0.0, most = 0.0, failed = 0.0, candidates = 0.0, islands = 0.0, updates = 0.0,
          local_failures = 0.0, penetration_max = 0.0, penetration_sum = 0.0,
          penetration_count = 0.0, potential_sum = 0.0, work_normal = 0.0, work_tangent = 0.0,
-         deferred = 0.0, unassembled = 0.0, carried = 0.0, handed_over = 0.0;
+         deferred = 0.0, unassembled = 0.0, carried = 0.0, handed_over = 0.0, iterations2 = 0.0;
   int failing_rank = -1;
   bool runaway = false;
   for (std::size_t r = 0; r * width < all.size(); ++r) {
@@ -116,6 +117,7 @@ void DistributedStepper::reduceStats() {
     unassembled += x[21];
     carried += x[22];
     handed_over += x[23];
+    iterations2 = std::max(iterations2, x[24]);
   }
   // a runaway or a state no longer finite on any rank ends the step on every rank, with the
   // lowest such rank's message
@@ -127,6 +129,7 @@ void DistributedStepper::reduceStats() {
   }
   d_.stats.active = static_cast<int>(active);
   d_.stats.iterations_stage1 = static_cast<int>(iterations);
+  d_.stats.iterations_stage2 = static_cast<int>(iterations2);
   d_.stats.cap_hit = cap > 0.0;
   d_.stats.residual = residual;
   d_.stats.kinetic = energy;

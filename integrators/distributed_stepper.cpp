@@ -25,8 +25,17 @@ DistributedStepper::DistributedStepper(const RankGroup& ranks, const Model& mode
   d_.scene_speeds = [this] { return sceneSpeeds(); };
   if (cmodel.dimension == 2 && distributed.interface == RankInterface::SplitMasses)
     refuse("interface", "split masses run on 3D spheres' rows only; 2D scenes take ordered sweeps");
-  if (m_.settings.scheme != Scheme::MoreauJean)
-    refuse("scheme.name", "only moreau-jean runs on ranks");
+  if (m_.settings.scheme != Scheme::MoreauJean) {
+    if (distributed.interface == RankInterface::SplitMasses)
+      refuse("interface", "split masses run scheme A only; scheme B takes ordered sweeps");
+    // the stages sweep across the ranks: NLGS, which `auto` takes on grains
+    for (const auto& [field, stage] :
+         {std::pair{"scheme.normal_stage.solver", &m_.settings.normal_stage},
+          {"scheme.friction_stage.solver", &m_.settings.friction_stage}})
+      if (stage->solver != StageSolver::Nlgs && stage->solver != StageSolver::Auto)
+        refuse(field, std::string(enumName(stage->solver)) +
+                          " does not run on ranks; nlgs or auto (NLGS with NNCG) do");
+  }
   if (m_.settings.projection.max_rounds > 0)
     refuse("scheme.projection.max_rounds", "position projection does not run on ranks");
   if (cmodel.path != DetectionPath::Analytic)
@@ -130,6 +139,8 @@ void DistributedStepper::reset(double t, const VectorX& q, const VectorX& v) {
     ds.upper[periodic.axis] = periodic.high;
   }
   ds.ghost_width = settings_.ghost_width > 0.0 ? settings_.ghost_width : 2.0 * largest_diameter_;
+  base_ghost_width_ = ds.ghost_width;
+  reach_ = 0.0;
   decomposition_.emplace(ranks_, ds);
   owned_.clear();
   owned_.payload_width = nq_ + nv_;
@@ -177,10 +188,13 @@ void DistributedStepper::refreshOwnership() {
 }
 
 void DistributedStepper::handOverContacts() {
-  // key (3), tangent1 (3), impulse (3), rolling impulse (2, with rolling resistance)
+  // key (3), tangent1 (3), impulse (3), rolling impulse (2, with rolling resistance), scheme
+  // B's staged impulses (4: normal, delta, tangent)
   std::vector<Contact>& contacts = d_.contact_data.contacts;
   const bool rolling = m_.cmodel.rolling && d_.rolling.size() == contacts.size();
-  const std::size_t width = rolling ? 11 : 9;
+  const bool staged = m_.settings.scheme != Scheme::MoreauJean;
+  if (staged) d_.staged.resize(contacts.size());
+  const std::size_t width = 9 + (rolling ? 2 : 0) + (staged ? 4 : 0);
   const int size = ranks_.size(), rank = ranks_.rank();
   for (int r = 0; r < size; ++r) send_[r].clear();
   handed_over_ = 0;
@@ -196,6 +210,10 @@ void DistributedStepper::handOverContacts() {
                 static_cast<double>(k.key.feature), k.tangent1.x(), k.tangent1.y(), k.tangent1.z(),
                 P.x(), P.y(), P.z()});
     if (rolling) out.insert(out.end(), {d_.rolling[c].x(), d_.rolling[c].y()});
+    if (staged) {
+      const StagedImpulse& s = d_.staged[c];
+      out.insert(out.end(), {s.normal, s.delta, s.tangent.x(), s.tangent.y()});
+    }
     ++handed_over_;
     doubles += static_cast<std::int64_t>(width);
   }
@@ -219,6 +237,10 @@ void DistributedStepper::handOverContacts() {
       contacts.push_back(k);
       d_.impulse.emplace_back(x[6], x[7], x[8]);
       if (rolling) d_.rolling.emplace_back(x[9], x[10]);
+      if (staged) {
+        const double* y = x + (rolling ? 11 : 9);
+        d_.staged.push_back(StagedImpulse{y[0], y[1], Vector2(y[2], y[3])});
+      }
     }
   // detection left this rank's list sorted by key: sort the arrivals and merge
   const int n = static_cast<int>(contacts.size());
@@ -239,6 +261,11 @@ void DistributedStepper::handOverContacts() {
     merged_rolling_.resize(n);
     for (int c = 0; c < n; ++c) merged_rolling_[c] = d_.rolling[merge_order_[c]];
     d_.rolling.swap(merged_rolling_);
+  }
+  if (staged) {
+    merged_staged_.resize(n);
+    for (int c = 0; c < n; ++c) merged_staged_[c] = d_.staged[merge_order_[c]];
+    d_.staged.swap(merged_staged_);
   }
 }
 
@@ -384,7 +411,11 @@ const StepStats& DistributedStepper::step() {
   d_.stats.step += 1;
   d_.model_data.threads = m_.threads;
   bytes_ = 0;
+  dstats_.ghost_widenings = 0;
   refreshOwnership();
+  // the band of ghosts: the base width, or wider where the last step's detection reached
+  // further (a step needing more widens it again before its detection)
+  decomposition_->setGhostWidth(std::max(base_ghost_width_, kGhostSlack * reach_));
   receiveGhosts();
   handOverContacts();
   midpoint(m_, d_);
@@ -441,14 +472,21 @@ void DistributedStepper::detectAndSolve(const DetectionMargins& at_least) {
   using namespace stepping;
   detect(m_, d_, at_least);
   // the ghosts must hold every grain an owned grain may touch (the margins are the same on
-  // every rank: scene_speeds)
+  // every rank: scene_speeds): where they do not, the ghosts come again from a wider band
   const double margin = std::max(d_.stats.margin, d_.stats.margin_balls);
-  const double ghost_width = decomposition_->settings().ghost_width;
-  if (largest_diameter_ + margin > ghost_width)
-    throw CollectiveError(
-        "distributed run, step " + std::to_string(d_.stats.step) + ": the detection margin " +
-        std::to_string(margin) + " m plus the largest diameter exceeds the ghost width " +
-        std::to_string(ghost_width) + " m; raise ghost_width or shorten the step");
+  reach_ = largest_diameter_ + margin;
+  if (reach_ > decomposition_->settings().ghost_width) {
+    if (!decomposition_->setGhostWidth(kGhostSlack * reach_))
+      throw CollectiveError("distributed run, step " + std::to_string(d_.stats.step) +
+                            ": the detection margin " + std::to_string(margin) +
+                            " m plus the largest diameter needs ghosts from a band wider than "
+                            "half the period; shorten the step");
+    undoDetection(m_, d_);
+    receiveGhosts();
+    midpoint(m_, d_);
+    detect(m_, d_, at_least);
+    ++dstats_.ghost_widenings;
+  }
   freeVelocity(m_, d_);
   const bool ordered = settings_.interface == RankInterface::OrderedSweeps;
   if (!ordered) {
@@ -469,12 +507,13 @@ void DistributedStepper::detectAndSolve(const DetectionMargins& at_least) {
             touched_[body->index])
           throw std::logic_error("distributed run: a shared body's row is not a sphere row");
     }
+    const bool scheme_a = m_.settings.scheme == Scheme::MoreauJean;
     if (ranks_.size() == 1)
-      solveMoreauJean(m_, d_);
-    else if (ordered)
-      solveInRankOrder();
-    else
+      scheme_a ? solveMoreauJean(m_, d_) : solveCatchingUp(m_, d_);
+    else if (!ordered)
       solveAcrossRanks();
+    else
+      scheme_a ? solveInRankOrder() : solveCatchingUpInRankOrder();
   };
   // every rank repeats a screening round when any rank admitted a candidate
   auto agree = [&](int admitted) {

@@ -1,5 +1,5 @@
 #pragma once
-// Scheme A (Jean-Moreau, time_stepper.hpp) over MPI ranks: each rank steps the particles it
+// Both schemes (time_stepper.hpp) over MPI ranks: each rank steps the particles it
 // owns (contact/domain_decomposition.hpp) and solves the contacts whose lowest owner rank it
 // is (a contact across a cut goes to the lower rank). A body the rows of several ranks move
 // (a shared body) is solved in one of two ways (RankInterface):
@@ -28,6 +28,14 @@
 // warm start (the last step's impulses) and add every rank's part of it on the shared bodies
 // before the first sweep. One rank runs the plain step.
 //
+// Scheme B (the staggered scheme of Charles, Casenave & Glocker 2018) runs both of its stages
+// as ordered sweeps, each from its own warm start glued as above: stage 5a's NLGS on the
+// normal rows, then stage 5b's on the friction rows with the thresholds of 5a's impulses. Its
+// projection of v1 on the closed normals (convex_stages.hpp) is conjugate gradients across the
+// ranks: each product scatters the rank's rows onto its bodies, sums the shared bodies' parts
+// over their ranks in rank order, and gathers; the dot products are sums over the ranks. The
+// stages take NLGS on ranks (`auto`: with NNCG, as the single process takes it on grains).
+//
 // Each step: the owners move with their particles (migration; the domain cut again by work
 // when the balance has gone, DistributedSettings), the last step's contacts whose owner changed
 // go to the new owner with their impulses (warm starts), the copies within ghost_width of a
@@ -38,12 +46,13 @@
 //
 // Scope: 3D scenes whose bodies with dofs are all free spheres, or 2D scenes whose bodies with
 // dofs are all free disks (ordered sweeps only); walls, plates, blades and other driven or
-// fixed shapes are held by every rank. Scheme A, with:
+// fixed shapes are held by every rank. Both schemes (scheme B with ordered sweeps), with:
 //   - adhesion: each adhesive row's -h F is part of its rank's push on shared bodies;
 //   - candidate screening: every rank repeats a round when any rank admitted a candidate;
 //   - detection margins and the margin check after the solve (detection.verify_margin) from
 //     the whole scene's speeds, the ranks' owned grains combined: every rank detects with the
-//     single process's margins, and all detect again when those fall short.
+//     single process's margins, and all detect again when those fall short; the ghost band
+//     follows the margin (DistributedSettings::ghost_width).
 // No position projection, actuators, joint limits, systems or constraints; the constructor
 // says which field is not supported.
 #include <chrono>
@@ -54,7 +63,9 @@
 #include <vector>
 
 #include "contact/domain_decomposition.hpp"
+#include "integrators/friction_stage.hpp"
 #include "integrators/step_data.hpp"
+#include "integrators/sweeps.hpp"
 
 namespace sweep {
 
@@ -88,8 +99,10 @@ struct DistributedSettings {
   // leave the cuts of the start behind: one of two ranks ends with nearly every grain.
   int rebalance_interval = 10;
   double rebalance_above = 1.2;
-  // the largest centre distance of two grains that may touch within a step (m); 0: twice the
-  // largest diameter. A step whose detection margin does not fit in it throws on every rank.
+  // the band of ghost copies about a rank's region (m): at least the largest centre distance
+  // of two grains that may touch within a step; 0: twice the largest diameter. A step whose
+  // detection margin plus the largest diameter exceeds it takes its ghosts again from a band
+  // kGhostSlack times as wide, and the next step starts from that band.
   double ghost_width = 0.0;
 };
 
@@ -97,7 +110,8 @@ struct DistributedSettings {
 struct DistributedStats {
   std::int64_t bytes_sent = 0;     // migration, ghosts and glue messages
   std::int64_t shared_bodies = 0;  // bodies touched by the contacts of more than one rank
-  int exchanges = 0;  // of the shared bodies' velocities: per colour and sweep, or glues
+  int exchanges = 0;        // of the shared bodies' velocities: per colour and sweep, or glues
+  int ghost_widenings = 0;  // ghost exchanges again from a wider band (0 or 1 a step)
   // split masses: the largest |v copy - v glued| of the last glue (m/s; a spin difference
   // times the largest radius)
   double mismatch = 0.0;
@@ -144,6 +158,29 @@ class DistributedStepper {
   // v_free kept, the last step's impulses applied, and every rank's part of them added on the
   // shared bodies; returns the glue's mismatch
   double startFromWarmStart(VectorX& v);
+  // a stage's start: v kept as the stage's base, warm(v) applies this rank's warm start, and
+  // every rank's part of it is added on the shared bodies; returns the glue's mismatch
+  double startStage(VectorX& v, const std::function<void(VectorX&)>& warm);
+  // the assembled rows split for the ordered sweeps: interior and interface, and the turns
+  void splitRowsForTurns();
+  // The ordered sweeps of one solve from its warm start in v: sweep(rows, count, change2,
+  // size2, failures) updates the listed rows once each, residual(rows, count, f2, scale2) adds
+  // their natural-map terms; NNCG on momentum_impulses where settings take it.
+  using RowSweep = std::function<void(const int* rows, int count, double& change2, double& size2,
+                                      int& failures)>;
+  using RowResidual = std::function<void(const int* rows, int count, double& f2, double& scale2)>;
+  SolverStats sweepInRankOrder(const SolverSettings& settings,
+                               std::initializer_list<ImpulseArray> momentum_impulses, VectorX& v,
+                               const RowSweep& sweep, const RowResidual& residual);
+  // scheme B: both stages in rank order (solveCatchingUp's bookkeeping, these stage solves)
+  void solveCatchingUpInRankOrder();
+  SolverStats frictionStageInRankOrder(const std::vector<double>* threshold_impulse, VectorX& v);
+  // stage 5b's projection on the closed normals across the ranks (workspace offsets); returns
+  // the row visits
+  long projectAcrossRanks(const FrictionRowRule& rule);
+  // z on each body the rows of several ranks touch: the sum of those ranks' parts, in rank order
+  void sumSharedParts(VectorX& z);
+  bool anyOverRanks(bool mine);
   // element by element over the ranks, in rank order: the same bits on every rank
   void sumOverRanks(std::vector<double>& values);
   void recordSolve(std::chrono::steady_clock::time_point start, const SolverStats& solve);
@@ -190,6 +227,10 @@ class DistributedStepper {
   std::vector<int> owner_;              // per local body: its owner
   std::vector<int> local_bodies_;       // owned, then ghosts, each once
   double largest_diameter_ = 0.0;
+  // the ghost band: its width from the settings, and the last detection's reach (the largest
+  // diameter plus the margin), which the next step's band covers with kGhostSlack to spare
+  static constexpr double kGhostSlack = 1.1;
+  double base_ghost_width_ = 0.0, reach_ = 0.0;
   // shared bodies: touch_out_[r] the bodies owned by r that this rank's contacts touch (in the
   // order sent), touch_in_[r] this rank's bodies that r's contacts touch
   std::vector<std::vector<int>> touch_out_, touch_in_;
@@ -216,13 +257,19 @@ class DistributedStepper {
   std::vector<int> split_;                   // bodies whose masses are split this step
   std::vector<std::int64_t> contact_count_;  // per body: of the last step (the balance's work)
   std::vector<int> work_counted_;            // the bodies whose contact_count_ is not 0
-  VectorX v_free_;                           // the contact-free velocity of this step
+  VectorX stage_base_;  // the velocity a stage's solve starts from (scheme A: v_free)
+  // the projection's conjugate gradients: rows, scaled unknowns, residuals, directions, and
+  // the velocities of the direction and of the iterate
+  std::vector<int> cg_rows_;
+  std::vector<double> cg_scale_, cg_carried2_, cg_x_, cg_r_, cg_p_, cg_Ap_, shared_sum_;
+  VectorX cg_velocity_p_, cg_velocity_x_;
   std::vector<std::vector<double>> send_, receive_;
   // handOverContacts' merge: the order by key, and the lists in that order
   std::vector<int> merge_order_;
   std::vector<Contact> merged_contacts_;
   std::vector<Vector3> merged_impulse_;
   std::vector<Vector2> merged_rolling_;
+  std::vector<StagedImpulse> merged_staged_;
   std::int64_t handed_over_ = 0, carried_ = 0;    // this rank's, this step
   std::vector<double> reduce_mine_, reduce_all_;  // the solve's sums, gathered every sweep
   DistributedStats dstats_;

@@ -43,11 +43,6 @@ void prepareFrictionStage(const ContactProblem& p, const FrictionStageOptions& o
   }
 }
 
-namespace {
-
-// Applies an admissible warm start: contacts without threshold carry no friction, and the
-// sweep skips them, so nothing may be left on them; a guarded row pushes only, and only when
-// something can move it (`any`: no sweep runs otherwise).
 void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v) {
   const ContactProblem& p = stage.p;
   for (int c = 0; c < p.size(); ++c) {
@@ -62,6 +57,8 @@ void warmStartFriction(const FrictionStageRows& stage, bool any, VectorX& v) {
   }
   warmStartRolling(p, stage.R, v);
 }
+
+namespace {
 
 // The sweeps of one island, ws.order[0, count), to the tolerance or the cap. The periodic
 // residual check as in the other stages: with GLOBAL tangents in a hyperstatic heap the

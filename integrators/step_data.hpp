@@ -238,6 +238,8 @@ void midpoint(const StepModel& m, StepData& d);  // 1
 int contactOwner(const std::vector<int>& body_rank, const Contact& contact);
 // 2, with margins of at least `at_least`
 void detect(const StepModel& m, StepData& d, const DetectionMargins& at_least = {});
+// back to the state before detect(m, d): the contact lists and warm starts of the last step
+void undoDetection(const StepModel& m, StepData& d);
 void freeVelocity(const StepModel& m, StepData& d);      // 4 (M(q_m) factored here; 3 needs it)
 void assemble(const StepModel& m, StepData& d);          // 3: Jacobian, then the problem
 void assembleJacobian(const StepModel& m, StepData& d);  // rows of the contacts not unassembled
@@ -252,7 +254,15 @@ void solveScreened(const StepModel& m, StepData& d, const std::function<void()>&
                    const std::function<int(int)>& agree, bool adhesion_in_solve);
 void solveMoreauJean(const StepModel& m, StepData& d);  // 5, scheme A
 void solveCatchingUp(const StepModel& m, StepData& d);  // 5, scheme B
-void keepImpulses(const StepModel& m, StepData& d);     // by contact: the next solve's warm start
+// scheme B's step 5 with its two stages' solves given: the stage-5a solve of d.lambda_N from v,
+// and the stage-5b solve of d.delta, d.lambda_T (and d.R) from v1 with the thresholds'
+// impulses (null: d.lambda_N). solveCatchingUp(m, d) passes the single process's stage solvers.
+struct StageSolves {
+  std::function<SolverStats(VectorX& v)> normal;
+  std::function<SolverStats(const std::vector<double>* threshold_impulse, VectorX& v)> friction;
+};
+void solveCatchingUp(const StepModel& m, StepData& d, const StageSolves& stages);
+void keepImpulses(const StepModel& m, StepData& d);  // by contact: the next solve's warm start
 // Adhesion (ContactLaw; docs/schemes.md, "Adhesion"): on a row with P_N >= -h F the solvers see
 // P~ = P + (h F, 0, 0) >= 0, the plain law with the thresholds mu P~_N and mu_r R* P~_N, and a
 // contact-free velocity that carries the impulse -h F of every adhesive row.

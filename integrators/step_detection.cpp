@@ -98,14 +98,18 @@ DetectionMargins marginNeeded(const StepModel& m, StepData& d) {
   return out;
 }
 
-void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins,
-              const std::function<void(const DetectionMargins&)>& stages_2_to_5) {
-  // back to the state after midpoint(m, d): the detection swaps its lists and the warm starts
-  // with the previous step's, so swap them back first (the solve's results are discarded)
+void undoDetection(const StepModel& m, StepData& d) {
+  // the detection swaps its lists and the warm starts with the previous step's
   std::swap(d.contact_data.contacts, d.contact_data.previous);
   std::swap(d.impulse, d.previous_impulse);
   std::swap(d.staged, d.previous_staged);
   if (m.cmodel.rolling) std::swap(d.rolling, d.previous_rolling);
+}
+
+void redoStep(const StepModel& m, StepData& d, const DetectionMargins& margins,
+              const std::function<void(const DetectionMargins&)>& stages_2_to_5) {
+  // back to the state after midpoint(m, d) (the solve's results are discarded)
+  undoDetection(m, d);
   d.contact_dv = d.contact_dv_start;
   d.limit_impulse = d.limit_impulse_start;
   d.constraint_impulse = d.constraint_impulse_start;

@@ -211,6 +211,19 @@ const StagedImpulse* previousStaged(const StepData& d, int c) {
 }  // namespace
 
 void solveCatchingUp(const StepModel& m, StepData& d) {
+  std::vector<Vector2>* R = d.problem.rolling ? &d.R : nullptr;
+  solveCatchingUp(
+      m, d,
+      {[&](VectorX& v) {
+         return solveNormalStage(d.problem, m.settings.normal_stage, d.lambda_N, v, d.solver_ws);
+       },
+       [&](const std::vector<double>* threshold, VectorX& v) {
+         return solveFrictionStage(d.problem, m.settings.friction_stage, m.settings.friction,
+                                   d.lambda_N, d.delta, d.lambda_T, v, d.solver_ws, R, threshold);
+       }});
+}
+
+void solveCatchingUp(const StepModel& m, StepData& d, const StageSolves& stages) {
   const auto start = std::chrono::steady_clock::now();
   const int n = d.problem.size();
   VectorX& v = d.v_free;
@@ -227,8 +240,7 @@ void solveCatchingUp(const StepModel& m, StepData& d) {
   }
   d.stats.kinetic_free = metricKinetic(m, d, v);
   // 5a: frictionless inelastic shock on the scaled normals
-  const SolverStats normal =
-      solveNormalStage(d.problem, m.settings.normal_stage, d.lambda_N, v, d.solver_ws);
+  const SolverStats normal = stages.normal(v);
   d.stats.iterations_stage1 = normal.iterations;
   d.stats.updates = normal.updates;
   d.stats.residual = normal.residual;
@@ -255,9 +267,7 @@ void solveCatchingUp(const StepModel& m, StepData& d) {
         threshold = &d.threshold_impulse;
         v = d.v_stage1;
       }
-      const SolverStats friction = solveFrictionStage(
-          d.problem, m.settings.friction_stage, m.settings.friction, d.lambda_N, d.delta,
-          d.lambda_T, v, d.solver_ws, d.problem.rolling ? &d.R : nullptr, threshold);
+      const SolverStats friction = stages.friction(threshold, v);
       d.stats.iterations_stage2 += friction.iterations;
       d.stats.updates += friction.updates;
       if (round + 1 < rounds) continue;
