@@ -211,15 +211,16 @@ const StagedImpulse* previousStaged(const StepData& d, int c) {
 }  // namespace
 
 void solveCatchingUp(const StepModel& m, StepData& d) {
-  std::vector<Vector2>* R = d.problem.rolling ? &d.R : nullptr;
+  // each stage's lambda holds two references, which std::function keeps without allocating
   solveCatchingUp(
       m, d,
-      {[&](VectorX& v) {
+      {[&m, &d](VectorX& v) {
          return solveNormalStage(d.problem, m.settings.normal_stage, d.lambda_N, v, d.solver_ws);
        },
-       [&](const std::vector<double>* threshold, VectorX& v) {
+       [&m, &d](const std::vector<double>* threshold, VectorX& v) {
          return solveFrictionStage(d.problem, m.settings.friction_stage, m.settings.friction,
-                                   d.lambda_N, d.delta, d.lambda_T, v, d.solver_ws, R, threshold);
+                                   d.lambda_N, d.delta, d.lambda_T, v, d.solver_ws,
+                                   d.problem.rolling ? &d.R : nullptr, threshold);
        }});
 }
 
