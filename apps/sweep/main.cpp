@@ -397,7 +397,23 @@ static int runCommand(int argc, char** argv) {
     }
     if (run->parsed()) {
       describeScene(file, scene, out);
-      if (ranks.size() > 1) out << "  on " << ranks.size() << " MPI ranks\n";
+      if (ranks.size() > 1) {
+        out << "  on " << ranks.size() << " MPI ranks";
+        // the staggered scheme's stages sweep across the ranks whatever `auto` takes in one
+        // process (integrators/distributed_stepper.hpp)
+        const sweep::SchemeSettings& scheme_settings = file.run.scheme;
+        if (scheme_settings.scheme == sweep::Scheme::CatchingUp) {
+          auto swept = [](const sweep::SolverSettings& stage) {
+            return stage.solver == sweep::StageSolver::Auto ||
+                           stage.acceleration == sweep::NlgsAcceleration::Nncg
+                       ? "nlgs with nncg"
+                       : "nlgs";
+          };
+          out << ", stages by " << swept(scheme_settings.normal_stage) << " + "
+              << swept(scheme_settings.friction_stage) << " across the ranks";
+        }
+        out << "\n";
+      }
       sweep::RunOptions options;
       options.out_dir = out_dir;
       options.log = &std::cerr;
