@@ -101,7 +101,7 @@ class NormalRows final : public QpOperator {
       : p_(p),
         ws_(ws),
         schedule_(schedule),
-        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
+        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d) {}
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
     clearVelocities(&ws_.dofs, z, schedule_.threads());
     schedule_.scatter([&](int c) {
@@ -149,7 +149,7 @@ class FrictionRows final : public QpOperator {
         ws_(nlgs.convex),
         schedule_(schedule),
         dT_(p.dimension - 1),
-        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d) {}
+        rows_(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d) {}
 
   void toVelocity(const std::vector<double>& x, VectorX& z) const override {
     clearVelocities(&ws_.dofs, z, schedule_.threads());

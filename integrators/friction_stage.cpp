@@ -111,10 +111,11 @@ SolverStats solveFrictionStageNlgs(const ContactProblem& p, const SolverSettings
       p, options, rule, ws, lambda_N, delta, lambda_T, R, settings.relaxation};
   warmStartFriction(stage, any, v);
   if (!any) return total;
-  // packed 3D rows hold the rolling rows too: read so when R covers every row (compact
-  // sphere rows from the generic arrays: the stage reads their W's blocks)
+  // packed 3D rows (entry, body form or compact sphere rows) hold the rolling rows too: read
+  // so when R covers every row
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
-  const RowReader rows(p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d : 0u));
+  const RowReader rows(
+      p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
   prepareNncg(settings, p, v, ws);
   for (int island = 0; island < p.islandCount(); ++island) {
     const int count = selectIsland(p, island, ws);

@@ -17,7 +17,7 @@ SolverStats normalIsland(const ContactProblem& p, const SolverSettings& settings
                          std::vector<double>& lambda_N, VectorX& v, SolverWorkspace& ws, int n) {
   // packed rows where the problem has them: their 1 / W_NN is the assembly's, so the sweeps
   // give the entry rows' bits
-  const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d);
+  const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
   const bool coloured = colourForThreads(p, settings, rows.packed(), ws, n);
   const int* order = ws.order.data();
   return sweepIsland(

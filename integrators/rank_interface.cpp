@@ -387,7 +387,7 @@ void DistributedStepper::solveCatchingUpInRankOrder() {
       stepping::applyAdhesionImpulses(d_, warm);
       for (int c = 0; c < p.size(); ++c) p.applyImpulse(c, Vector3(lambda_N[c], 0.0, 0.0), warm);
     });
-    const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d);
+    const RowReader rows(p, RowReader::kPacked2d | RowReader::kPacked3d | RowReader::kSpheres3d);
     const double omega = normal_settings.relaxation;
     return sweepInRankOrder(
         normal_settings, {impulses(lambda_N)}, v,
@@ -431,7 +431,8 @@ SolverStats DistributedStepper::frictionStageInRankOrder(
   startStage(v, [&](VectorX& warm) { warmStartFriction(stage, any, warm); });
   if (!any) return total;
   const bool rolling_fits = R == nullptr || static_cast<int>(R->size()) == p.size();
-  const RowReader rows(p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d : 0u));
+  const RowReader rows(
+      p, RowReader::kPacked2d | (rolling_fits ? RowReader::kPacked3d | RowReader::kSpheres3d : 0u));
   SolverStats sweeps = sweepInRankOrder(
       settings, {impulses(&d_.lambda_T), impulses(d_.delta), impulses(R)}, v,
       [&](const int* list, int count, double& change2, double& size2, int&) {

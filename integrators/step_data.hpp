@@ -61,9 +61,8 @@ struct SchemeSettings {
     double tolerance = 1e-3;
   } projection;
   // 3D: contacts of free spheres as compact rows (ContactProblem::PackedSphere3d), 320 bytes
-  // against 704 for the body-form rows, equal to them up to round-off. Scheme A's sweeps read
-  // them directly; scheme B's friction stage reads them through the generic path and has a
-  // packed path for body-form rows only. Unset (auto): compact for scheme A, body form for B.
+  // against 704 for the body-form rows, equal to them up to round-off; every sweep, operator
+  // and residual of both schemes reads them directly. Unset (auto): compact.
   // The two row-storage choices are benchmark hooks (`sweep run --row-storage`, tests), not
   // scene keys: a scene's results do not depend on them.
   std::optional<bool> compact_sphere_rows;
@@ -76,7 +75,7 @@ struct SchemeSettings {
   int threads = 0;
   int threadCount() const;  // `threads`, or the machine's cores for 0
   bool compactSphereRows() const {
-    return compact_sphere_rows.value_or(scheme == Scheme::MoreauJean);
+    return compact_sphere_rows.value_or(true);
   }
 
   void validate() const;

@@ -424,8 +424,8 @@ TEST_F(InScenesFolder, UrdfPackagePathsAndMissingMeshesReachTheImporter) {
   EXPECT_EQ(back.model.collisions[0].box_size, scene.model.collisions[0].box_size);
 }
 
-// The sphere rows' storage is the scheme's choice (compact rows for A, body form for B) unless
-// a benchmark sets it; a scene file cannot (a benchmark hook, `sweep run --row-storage`).
+// The sphere rows are compact in both schemes unless a benchmark sets the storage; a scene file
+// cannot (a benchmark hook, `sweep run --row-storage`).
 TEST(SceneFile, CompactSphereRowsAreAutoUnlessSet) {
   const std::string funnel = std::string(SWEEP_SOURCE_DIR) + "/examples/funnel/funnel.yaml";
   EXPECT_FALSE(loadSceneFile(funnel).run.scheme.compact_sphere_rows.has_value());
@@ -435,9 +435,9 @@ TEST(SceneFile, CompactSphereRowsAreAutoUnlessSet) {
   s.scheme = Scheme::MoreauJean;
   EXPECT_TRUE(s.compactSphereRows());
   s.scheme = Scheme::CatchingUp;
-  EXPECT_FALSE(s.compactSphereRows());
-  s.compact_sphere_rows = true;
   EXPECT_TRUE(s.compactSphereRows());
+  s.compact_sphere_rows = false;
+  EXPECT_FALSE(s.compactSphereRows());
 }
 
 // Loads: a constant force on a free sphere's centre gives a = F / m; a ramp torque gives a
