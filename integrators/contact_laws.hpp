@@ -247,9 +247,9 @@ struct FrictionStageRows {
 
   // A guarded row's projected Gauss-Seidel step on delta at normal velocity u_N: updates
   // delta and the sweep's measures, returns the change.
-  [[gnu::always_inline]] double guardStep(int c, double u_N, double W_NN, double& change2,
+  [[gnu::always_inline]] double guardStep(int c, double u_N, double W_NN_inverse, double& change2,
                                           double& size2) const {
-    const double target = std::max(delta[c] - (u_N + p.normal_bias[c]) / W_NN, 0.0);
+    const double target = std::max(delta[c] - (u_N + p.normal_bias[c]) * W_NN_inverse, 0.0);
     const double dd = std::max(delta[c] + omega * (target - delta[c]), 0.0) - delta[c];
     delta[c] += dd;
     change2 += dd * dd;
@@ -306,6 +306,13 @@ struct FrictionStageRows {
                                        Lt_inv.transpose() * uT, radius);
       return Lt_inv * z;
     }
+    if (radius > 0.0 && A(0, 1) == 0.0 && A(0, 0) == A(1, 1)) {
+      // isotropic (compact sphere rows): minimizeOnDisc's Euclidean projection, with the
+      // inverse taken apart from the velocity so that no division waits on the sweep
+      const Vector2 y = lambda_T[c] - uT * (1.0 / A(0, 0));
+      const double norm = y.norm();
+      return norm <= radius ? y : Vector2(y * (radius / norm));
+    }
     return minimizeOnDisc(A, lambda_T[c], uT, radius);
   }
 
@@ -343,7 +350,7 @@ struct FrictionStageRows {
     }
     Local dP = Local::Zero();
     if (guard_row) {
-      dP.x() = guardStep(c, u.x(), r.W_NN(), change2, size2);
+      dP.x() = guardStep(c, u.x(), r.complianceInverse(), change2, size2);
     } else if (friction_row) {
       Vector2 uT;
       Matrix2 A;
@@ -353,7 +360,7 @@ struct FrictionStageRows {
       dP = tangentMap<Row::kLocal>(c, dl, r.dimension());
       if (bilateral) {
         // keep this contact's normal velocity at its stage-5a value
-        const double dd = -(drift + normalTangentRow(r.W()).dot(dl)) / r.W_NN();
+        const double dd = -(drift + normalTangentRow(r.W()).dot(dl)) * r.complianceInverse();
         dP.x() += dd;
         delta[c] += dd;
       }
@@ -377,7 +384,7 @@ struct FrictionStageRows {
     Vector2 unused;
     r.velocity(v, u, unused);
     if (guard_row) {
-      r.applyNormal(guardStep(c, u.x(), r.W_NN(), change2, size2), v);
+      r.applyNormal(guardStep(c, u.x(), r.complianceInverse(), change2, size2), v);
       return;
     }
     const double coupling = ws.coupling[c].x();
@@ -396,7 +403,7 @@ struct FrictionStageRows {
     const double dl = omega * (std::clamp(lambda - uT / A, -radius, radius) - lambda);
     double dN = options.tangents == TangentMode::Local ? -coupling * dl : 0.0;
     if (held) {
-      const double dd = -(drift + r.W()(0, 1) * dl) / r.W_NN();
+      const double dd = -(drift + r.W()(0, 1) * dl) * r.complianceInverse();
       dN += dd;
       delta[c] += dd;
     }

@@ -74,9 +74,7 @@ struct SchemeSettings {
   // every count (SolverSettings::parallel_rows); it overrides the stages' own `threads`.
   int threads = 0;
   int threadCount() const;  // `threads`, or the machine's cores for 0
-  bool compactSphereRows() const {
-    return compact_sphere_rows.value_or(true);
-  }
+  bool compactSphereRows() const { return compact_sphere_rows.value_or(true); }
 
   void validate() const;
 };
