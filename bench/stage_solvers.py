@@ -26,6 +26,8 @@ CASES = {
     "slider_crank": ("examples/archetypes/slider_crank.yaml", []),
     # 80 000 touching disks at rest in a box, 20 steps: the whole pile closes in the first step
     "pile_2d": ("bench/scenes/touching_pile_2d.yaml", []),
+    # 8 000 touching spheres at rest in a box, 10 steps: the 3D pile
+    "pile_3d": ("bench/scenes/touching_pile_3d.yaml", []),
     # the reduced powder bed's heap settling (800 spheres, the first 20 ms), both stages at the
     # solvers' default tolerance (the scene's own is 1e-3)
     "powder_heap": ("examples/powder_bed/powder_bed_reduced.yaml",
@@ -50,6 +52,7 @@ CONFIGS = [
     ("moreau-jean generic rows", ["--scheme", "moreau-jean", "--row-storage", "generic"]),
     ("moreau-jean body-form rows", ["--scheme", "moreau-jean", "--row-storage", "body-form"]),
     ("catching-up generic rows", ["--scheme", "catching-up", "--row-storage", "generic"]),
+    ("catching-up body-form rows", ["--scheme", "catching-up", "--row-storage", "body-form"]),
 ]
 
 
