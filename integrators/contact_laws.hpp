@@ -308,7 +308,9 @@ struct FrictionStageRows {
     }
     if (radius > 0.0 && A(0, 1) == 0.0 && A(0, 0) == A(1, 1)) {
       // isotropic (compact sphere rows): minimizeOnDisc's Euclidean projection, with the
-      // inverse taken apart from the velocity so that no division waits on the sweep
+      // inverse taken apart from the velocity so that no division waits on the sweep; kept
+      // out of minimizeOnDisc, whose isotropic branch scheme A's rolling rows and residuals
+      // share with their own bits
       const Vector2 y = lambda_T[c] - uT * (1.0 / A(0, 0));
       const double norm = y.norm();
       return norm <= radius ? y : Vector2(y * (radius / norm));
